@@ -1,0 +1,168 @@
+"""The ``menagerie`` command.
+
+    menagerie demo [--headless] [--out DIR]      the zoo (window, or PNGs without a display)
+    menagerie view FILE [--snapshot OUT.png]     look at a creature file
+    menagerie creatures list [DIR]               counts per creature
+    menagerie creatures generate --seed S --count N --out DIR [--force]
+    menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
+    menagerie mocap simulate|tune ...            motion capture on physical bodies
+
+Errors a user can cause (bad files, missing paths) print one line naming the fault and
+exit with status 2; they never show a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import sys
+import time
+
+from engine.errors import MenagerieError
+
+#: Where the library lives, relative to the repository root.
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LIBRARY_CREATURES = os.path.join(REPO_ROOT, "creatures")
+
+
+def _creature_files(directory: str) -> list[str]:
+    if not os.path.isdir(directory):
+        raise MenagerieError(f"{directory}: no such directory")
+    files = sorted(glob.glob(os.path.join(directory, "*.yaml")))
+    if not files:
+        raise MenagerieError(f"{directory}: no creature files (*.yaml)")
+    return files
+
+
+# -- creatures ---------------------------------------------------------------------------
+
+
+def cmd_creatures_list(args: argparse.Namespace) -> int:
+    from engine.model import load_creature
+
+    directory = args.dir or LIBRARY_CREATURES
+    rows = []
+    for path in _creature_files(directory):
+        c = load_creature(path)
+        rows.append((c.name, c.counts(), c.height, c.description))
+    header = f"{'creature':<22}{'bodies':>7}{'spine':>6}{'legs':>5}{'arms':>5}{'heads':>6}{'height m':>10}  description"
+    print(header)
+    print("-" * len(header))
+    for name, k, height, description in rows:
+        print(f"{name:<22}{k['bodies']:>7}{k['spine']:>6}{k['legs']:>5}{k['arms']:>5}{k['heads']:>6}"
+              f"{height:>10.3f}  {description}")
+    print(f"{len(rows)} creatures")
+    return 0
+
+
+def cmd_creatures_generate(args: argparse.Namespace) -> int:
+    from engine.model.random import generate_creatures
+
+    if args.count < 1:
+        raise MenagerieError("--count must be at least 1")
+    paths = generate_creatures(args.seed, args.count, args.out, overwrite=args.force)
+    print(f"wrote {len(paths)} creatures to {args.out}")
+    return 0
+
+
+def cmd_creatures_from_bvh(args: argparse.Namespace) -> int:
+    from engine.io.bvh_creature import creature_def_from_bvh, load_caps_table
+    from engine.model import build_creature, write_creature_def
+
+    table = load_caps_table(args.caps) if args.caps else None
+    cdef = creature_def_from_bvh(args.file, caps_table=table, scale=args.scale)
+    creature = build_creature(cdef)  # validate before writing anything
+    try:
+        write_creature_def(cdef, args.out, overwrite=args.force)
+    except FileExistsError as exc:
+        raise MenagerieError(str(exc)) from None
+    print(f"wrote {args.out}: {creature!r}")
+    return 0
+
+
+# -- viewing -----------------------------------------------------------------------------
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from authoring.viewer import view_file
+
+    if not os.path.exists(args.file):
+        raise MenagerieError(f"{args.file}: no such file")
+    view_file(args.file, snapshot=args.snapshot)
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from authoring.demo import run_demo
+
+    return run_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
+
+
+# -- entry point -------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="menagerie", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    demo = sub.add_parser("demo", help="the creature zoo, animated")
+    demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
+    demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
+    demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds")
+    demo.set_defaults(func=cmd_demo)
+
+    view = sub.add_parser("view", help="look at a creature file")
+    view.add_argument("file")
+    view.add_argument("--snapshot", metavar="OUT.png", help="render offscreen to a PNG and exit")
+    view.set_defaults(func=cmd_view)
+
+    creatures = sub.add_parser("creatures", help="list, generate or import creatures")
+    csub = creatures.add_subparsers(dest="creatures_command", required=True)
+    lst = csub.add_parser("list", help="counts per creature file")
+    lst.add_argument("dir", nargs="?", help="directory of creature files (default: the library)")
+    lst.set_defaults(func=cmd_creatures_list)
+    gen = csub.add_parser("generate", help="write random creatures")
+    gen.add_argument("--seed", type=int, required=True)
+    gen.add_argument("--count", type=int, default=1)
+    gen.add_argument("--out", required=True, help="output directory")
+    gen.add_argument("--force", action="store_true", help="overwrite existing files")
+    gen.set_defaults(func=cmd_creatures_generate)
+    bvh = csub.add_parser("from-bvh", help="turn a BVH skeleton into a creature file")
+    bvh.add_argument("file")
+    bvh.add_argument("--out", required=True, help="creature file to write")
+    bvh.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
+    bvh.add_argument("--scale", type=float, default=None, help="file units to metres (default: auto)")
+    bvh.add_argument("--force", action="store_true", help="overwrite an existing file")
+    bvh.set_defaults(func=cmd_creatures_from_bvh)
+
+    try:
+        from engine.mocap_cli import add_mocap_parser
+    except ImportError:
+        pass
+    else:
+        add_mocap_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    try:
+        status = args.func(args)
+    except MenagerieError as exc:
+        print(f"menagerie: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"menagerie: error: {exc.filename}: no such file", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    if os.environ.get("MENAGERIE_TIMING"):
+        print(f"[{time.perf_counter() - started:.2f} s]", file=sys.stderr)
+    return int(status or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

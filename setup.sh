@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Set up Menagerie in a virtual environment .venv at the repository root.
+#   bash setup.sh          runtime + viewer (numpy, numba, pyyaml, pyglet)
+#   bash setup.sh dev      + test tools (pytest, hypothesis, ruff, pillow)
+#   bash setup.sh bench    + reference peers for the benchmarks (ikpy, mujoco)
+# Needs only Python 3.11+ and the package registries. Offscreen rendering uses EGL
+# (Mesa); when its libraries are missing and we are root, they are installed with apt.
+set -euo pipefail
+cd "$(dirname "$0")"
+
+extras=""
+for arg in "$@"; do
+  case "$arg" in
+    dev|bench|media) extras="${extras:+$extras,}$arg" ;;
+    *) echo "setup.sh: unknown option '$arg' (use dev, bench or media)" >&2; exit 2 ;;
+  esac
+done
+
+python=""
+for candidate in python3.11 python3.12 python3.13 python3; do
+  if command -v "$candidate" >/dev/null 2>&1 && \
+     "$candidate" -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else 1)'; then
+    python="$candidate"; break
+  fi
+done
+[ -n "$python" ] || { echo "setup.sh: Python 3.11 or newer is needed" >&2; exit 1; }
+
+[ -x .venv/bin/python ] || "$python" -m venv .venv
+.venv/bin/python -m pip install --quiet --upgrade pip
+spec="."
+[ -n "$extras" ] && spec=".[$extras]"
+.venv/bin/python -m pip install --quiet -e "$spec"
+
+# EGL for headless rendering (pyglet's headless mode). Debian/Ubuntu package names.
+if ! ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || \
+   ! ls /usr/lib/*/dri/swrast_dri.so /usr/lib/*/dri/*_dri.so >/dev/null 2>&1; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup.sh: installing EGL/Mesa for offscreen rendering"
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+      libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 libgles2 >/dev/null) || \
+      echo "setup.sh: could not install EGL; offscreen rendering will be unavailable" >&2
+  else
+    echo "setup.sh: EGL/Mesa not found; install libegl1 libegl-mesa0 libgl1-mesa-dri for offscreen rendering" >&2
+  fi
+fi
+echo "setup.sh: ready (.venv${extras:+ with $extras})"
