@@ -1,0 +1,134 @@
+"""Jiggles kernels: passive, highly damped secondary motion (Hecker et al. 2008, sec. 4.4).
+
+Each body that is not driven this frame (no IK, no animation) follows its parent rigidly
+at its rest offset, plus a lag: a point at the body's *tip* (its lever, see
+``engine.jiggle.rig``) is a damped spring toward where the rigid pose would put it. The
+body is then turned by the minimal-twist rotation that takes the rigid lever to the
+simulated one. Nothing feeds back: driven bodies are read, never written.
+
+The spring, per tip, in error coordinates e = p - p* (p the simulated tip, p* the rigid
+target), with target velocity u* and its change du* over the step:
+
+    e'' = -w^2 e - 2 z w e'         (w = 2 pi f, z the damping ratio)
+
+integrated by implicit (backward) Euler, which is unconditionally stable, so any dt from
+1/240 s to 1/15 s (and beyond) is safe:
+
+    e'_{n+1} = (e'_n - du* - dt w^2 e_n) / (1 + 2 z w dt + w^2 dt^2)
+    e_{n+1}  = e_n + dt e'_{n+1}
+
+The target's change of velocity du* enters as an impulse on the error velocity: when the
+parent stops suddenly the tip swings on, then settles. Once |e| and |e'| fall below a
+sleep threshold they are set to exactly zero, so a body at rest is exactly at rest (no
+endless twitching). The error is clamped to a fraction of the lever length so a teleport
+or a huge dt cannot fold a body over.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into
+
+
+@njit(cache=True)
+def jiggle_kernel(
+    body_parent,        # (n,) int32, global parent index (-1: a root, always driven)
+    body_local_rot,     # (n, 4) rest rotation relative to the parent
+    body_local_joint,   # (n, 3) joint point in the parent's frame
+    body_joint_offset,  # (n, 3) body origin relative to its joint, in its own frame
+    jig_lever,          # (n, 3) lever from the joint to the tip, body frame, m
+    jig_omega,          # (n,) spring angular frequency, rad/s
+    jig_zeta,           # (n,) damping ratio
+    jig_max_err,        # (n,) largest tip deflection, m
+    jig_sleep,          # (n,) sleep threshold on |e| (m) and |e'| (m/s)
+    driven,             # (n,) bool: written by IK/FK this frame, left alone here
+    world_pos,          # (n, 3) in: driven bodies; out: the others
+    world_rot,          # (n, 4) same
+    state_err,          # (n, 3) tip error e
+    state_err_vel,      # (n, 3) tip error velocity e'
+    state_target,       # (n, 3) last rigid target tip
+    state_target_vel,   # (n, 3) last rigid target tip velocity
+    state_active,       # (n,) bool: simulated last frame
+    dt,                 # step, s (> 0)
+    simulate,           # False: rigid follow only (the stage switched off)
+):
+    n = body_parent.shape[0]
+    rigid_rot = np.empty(4)
+    joint_world = np.empty(3)
+    lever_rigid = np.empty(3)
+    lever_sim = np.empty(3)
+    target = np.empty(3)
+    turn = np.empty(4)
+    final_rot = np.empty(4)
+    offset = np.empty(3)
+    tmp = np.empty(3)
+    for i in range(n):
+        if driven[i]:
+            state_active[i] = False
+            continue
+        p = body_parent[i]
+        # Rigid pose at the rest offset from the parent.
+        quat_mul_into(world_rot[p], body_local_rot[i], rigid_rot)
+        quat_rotate_into(world_rot[p], body_local_joint[i], tmp)
+        for k in range(3):
+            joint_world[k] = world_pos[p, k] + tmp[k]
+        quat_rotate_into(rigid_rot, jig_lever[i], lever_rigid)
+        for k in range(3):
+            target[k] = joint_world[k] + lever_rigid[k]
+
+        if not simulate or jig_omega[i] <= 0.0:
+            state_active[i] = False
+            for k in range(4):
+                final_rot[k] = rigid_rot[k]
+        else:
+            if not state_active[i]:
+                # Becomes passive this frame: start from where its tip was last frame
+                # (continuity with the driven pose), at rest relative to the target.
+                # world_pos[i] and world_rot[i] still hold last frame's output.
+                quat_rotate_into(world_rot[i], jig_lever[i], tmp)
+                quat_rotate_into(world_rot[i], body_joint_offset[i], offset)
+                for k in range(3):
+                    last_joint = world_pos[i, k] - offset[k]
+                    state_err[i, k] = last_joint + tmp[k] - target[k]
+                    state_err_vel[i, k] = 0.0
+                    state_target[i, k] = target[k]
+                    state_target_vel[i, k] = 0.0
+                state_active[i] = True
+            w = jig_omega[i]
+            z = jig_zeta[i]
+            denom = 1.0 + 2.0 * z * w * dt + w * w * dt * dt
+            e2 = 0.0
+            v2 = 0.0
+            for k in range(3):
+                u_new = (target[k] - state_target[i, k]) / dt
+                du = u_new - state_target_vel[i, k]
+                ev = (state_err_vel[i, k] - du - dt * w * w * state_err[i, k]) / denom
+                state_err[i, k] = state_err[i, k] + dt * ev
+                state_err_vel[i, k] = ev
+                state_target[i, k] = target[k]
+                state_target_vel[i, k] = u_new
+                e2 += state_err[i, k] * state_err[i, k]
+                v2 += ev * ev
+            # Clamp the deflection; sleep when settled.
+            limit = jig_max_err[i]
+            if e2 > limit * limit:
+                s = limit / np.sqrt(e2)
+                for k in range(3):
+                    state_err[i, k] *= s
+            if e2 < jig_sleep[i] * jig_sleep[i] and v2 < jig_sleep[i] * jig_sleep[i]:
+                for k in range(3):
+                    state_err[i, k] = 0.0
+                    state_err_vel[i, k] = 0.0
+            for k in range(3):
+                lever_sim[k] = lever_rigid[k] + state_err[i, k]
+            quat_between_into(lever_rigid, lever_sim, turn)
+            quat_mul_into(turn, rigid_rot, final_rot)
+
+        # Body origin from its joint and final rotation.
+        quat_rotate_into(final_rot, body_joint_offset[i], offset)
+        for k in range(3):
+            world_pos[i, k] = joint_world[k] + offset[k]
+        for k in range(4):
+            world_rot[i, k] = final_rot[k]

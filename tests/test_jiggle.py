@@ -1,0 +1,183 @@
+"""Jiggles (Hecker et al. 2008, sec. 4.4): passive, never feeding back, settling, stable."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.jiggle import JiggleRig, JiggleState, jiggle_step
+from engine.mathx.quat import quat_from_axis_angle, quat_mul, quat_rotate
+from engine.model import build_creature, creature_from_text
+
+TEXT = """\
+format: 1
+name: tailed
+description: a body with legs, a head with ears and a three-segment tail
+bodies:
+  - {name: hips, caps: [spine], pos: [0, 0, 0.5], extents: [0.15, 0.1, 0.08]}
+  - {name: chest, parent: hips, caps: [spine], pos: [0.35, 0, 0.55], joint: [0.17, 0, 0.52], extents: [0.15, 0.1, 0.1]}
+  - {name: leg_l, parent: hips, caps: [limb, foot], pos: [0, 0.08, 0.22], joint: [0, 0.08, 0.44], extents: [0.03, 0.03, 0.22]}
+  - {name: leg_r, parent: hips, caps: [limb, foot], pos: [0, -0.08, 0.22], joint: [0, -0.08, 0.44], extents: [0.03, 0.03, 0.22]}
+  - {name: head, parent: chest, caps: [head], pos: [0.6, 0, 0.65], joint: [0.5, 0, 0.6], extents: [0.08, 0.07, 0.07]}
+  - {name: ear_l, parent: head, caps: [ear], pos: [0.6, 0.05, 0.78], joint: [0.6, 0.05, 0.72], extents: [0.01, 0.02, 0.06]}
+  - {name: ear_r, parent: head, caps: [ear], pos: [0.6, -0.05, 0.78], joint: [0.6, -0.05, 0.72], extents: [0.01, 0.02, 0.06]}
+  - {name: tail1, parent: hips, caps: [tail, limb], pos: [-0.25, 0, 0.5], joint: [-0.15, 0, 0.5], extents: [0.1, 0.03, 0.03]}
+  - {name: tail2, parent: tail1, caps: [tail, limb], pos: [-0.45, 0, 0.5], joint: [-0.35, 0, 0.5], extents: [0.1, 0.025, 0.025]}
+  - {name: tail3, parent: tail2, caps: [tail, limb], pos: [-0.65, 0, 0.5], joint: [-0.55, 0, 0.5], extents: [0.1, 0.02, 0.02]}
+"""
+
+
+@pytest.fixture(scope="module")
+def creature():
+    return creature_from_text(TEXT)
+
+
+def _driven(c):
+    driven = np.zeros(c.nbody, np.bool_)
+    for name in ("hips", "chest", "leg_l", "leg_r"):
+        driven[c.body(name)] = True
+    return driven
+
+
+def _pose_driven(c, driven, root_pos, root_rot, pos, rot):
+    """Rigid FK of the driven bodies from a moving root (what IK would hand over)."""
+    pos[0], rot[0] = root_pos, root_rot
+    for i in range(1, c.nbody):
+        if driven[i]:
+            p = c.body_parent[i]
+            rot[i] = quat_mul(rot[p], c.body_local_rot[i])
+            pos[i] = pos[p] + quat_rotate(rot[p], c.body_local_pos[i])
+
+
+def _root_motion(t, stop=1.0):
+    """A brisk back-and-forth swing with a turn, stopping dead at ``stop`` seconds."""
+    t = min(t, stop)
+    pos = np.array([0.4 * np.sin(6.0 * t), 0.1 * np.sin(9.0 * t), 0.5 + 0.05 * np.sin(12.0 * t)])
+    rot = quat_from_axis_angle(np.array([0.0, 0.0, 1.0]), 0.8 * np.sin(5.0 * t))
+    return pos, rot
+
+
+def _run(c, rig, dt, seconds, simulate=True, stop=1.0):
+    driven = _driven(c)
+    state = JiggleState(c.nbody)
+    pos = np.array(c.body_rest_pos, dtype=float)
+    rot = np.array(c.body_rest_rot, dtype=float)
+    frames = []
+    for f in range(int(round(seconds / dt))):
+        root_pos, root_rot = _root_motion(f * dt, stop)
+        _pose_driven(c, driven, root_pos, root_rot, pos, rot)
+        jiggle_step(rig, state, driven, pos, rot, dt, simulate=simulate)
+        frames.append((pos.copy(), rot.copy(), state.err.copy()))
+    return frames, state
+
+
+def _rigid(c, pos, rot):
+    """Where the passive bodies sit at their rest offsets from the current driven pose."""
+    out_pos, out_rot = pos.copy(), rot.copy()
+    driven = _driven(c)
+    for i in range(1, c.nbody):
+        if not driven[i]:
+            p = c.body_parent[i]
+            out_rot[i] = quat_mul(out_rot[p], c.body_local_rot[i])
+            out_pos[i] = out_pos[p] + quat_rotate(out_rot[p], c.body_local_pos[i])
+    return out_pos, out_rot
+
+
+def test_driven_bodies_are_bit_identical_with_jiggle_on_and_off(creature):
+    rig = JiggleRig.for_creature(creature)
+    on, _ = _run(creature, rig, 1 / 60, 1.5, simulate=True)
+    off, _ = _run(creature, rig, 1 / 60, 1.5, simulate=False)
+    driven = _driven(creature)
+    for (p_on, r_on, _), (p_off, r_off, _) in zip(on, off, strict=True):
+        assert np.array_equal(p_on[driven], p_off[driven])
+        assert np.array_equal(r_on[driven], r_off[driven])
+    # ...and the passive bodies really did move differently (the test can fail).
+    tail3 = creature.body("tail3")
+    lag = max(np.linalg.norm(a[0][tail3] - b[0][tail3]) for a, b in zip(on, off, strict=True))
+    assert lag > 0.01
+
+
+def test_off_means_rigid_at_rest_offsets(creature):
+    rig = JiggleRig.for_creature(creature)
+    frames, _ = _run(creature, rig, 1 / 60, 0.5, simulate=False)
+    for pos, rot, _ in frames:
+        rp, rr = _rigid(creature, pos, rot)
+        assert np.allclose(pos, rp, atol=1e-12) and np.allclose(rot, rr, atol=1e-12)
+
+
+@pytest.mark.parametrize("dt", [1 / 240, 1 / 60, 1 / 30, 1 / 15])
+def test_stable_and_settles_exactly(creature, dt):
+    rig = JiggleRig.for_creature(creature)
+    frames, state = _run(creature, rig, dt, 5.0, stop=1.0)
+    lever = np.linalg.norm(rig.lever, axis=1)
+    for pos, rot, err in frames:
+        assert np.all(np.isfinite(pos)) and np.all(np.isfinite(rot))
+        assert np.all(np.linalg.norm(err, axis=1) <= rig.max_err + 1e-12)
+        assert np.allclose(np.linalg.norm(rot, axis=1), 1.0)
+    # Within 3 s of the stop every passive body is exactly back at its rest offset (asleep).
+    settle = int(round(4.0 / dt))
+    for pos, rot, err in frames[settle:]:
+        assert np.all(err == 0.0)
+        rp, rr = _rigid(creature, pos, rot)
+        assert np.allclose(pos, rp, atol=1e-12 * (1 + lever.max()))
+    # No twitching: the last frames do not move at all.
+    assert np.array_equal(frames[-1][0], frames[-2][0])
+
+
+def test_tips_lag_more_than_roots(creature):
+    rig = JiggleRig.for_creature(creature)
+    frames, _ = _run(creature, rig, 1 / 60, 1.0)
+    t1, t3 = creature.body("tail1"), creature.body("tail3")
+    dev = {i: max(np.linalg.norm(err[i]) / np.linalg.norm(rig.lever[i]) for _, _, err in frames) for i in (t1, t3)}
+    assert dev[t3] > dev[t1] > 0.0
+
+
+def test_body_becoming_passive_starts_where_it_was(creature):
+    rig = JiggleRig.for_creature(creature)
+    state = JiggleState(creature.nbody)
+    pos = np.array(creature.body_rest_pos, dtype=float)
+    rot = np.array(creature.body_rest_rot, dtype=float)
+    driven = np.ones(creature.nbody, np.bool_)
+    head = creature.body("head")
+    # The head is animated, tilted 0.5 rad; next frame the animation lets go of it.
+    tilt = quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.5)
+    rot[head] = quat_mul(tilt, rot[head])
+    pos[head] = creature.body_joint[head] + quat_rotate(rot[head], creature.body_joint_offset[head])
+    before = pos[head].copy(), rot[head].copy()
+    driven[head] = False
+    driven[creature.body("ear_l")] = driven[creature.body("ear_r")] = False
+    jiggle_step(rig, state, driven, pos, rot, 1 / 60)
+    # One frame later it has moved back toward rest a little, not snapped there.
+    moved = np.linalg.norm(pos[head] - before[0])
+    rest_gap = np.linalg.norm(creature.body_rest_pos[head] - before[0])
+    assert 0.0 < moved < 0.5 * rest_gap
+
+
+def test_invalid_input(creature):
+    rig = JiggleRig.for_creature(creature)
+    state = JiggleState(creature.nbody)
+    pos = np.array(creature.body_rest_pos, dtype=float)
+    rot = np.array(creature.body_rest_rot, dtype=float)
+    with pytest.raises(ValueError, match="dt"):
+        jiggle_step(rig, state, _driven(creature), pos, rot, 0.0)
+    with pytest.raises(ValueError, match="dt"):
+        jiggle_step(rig, state, _driven(creature), pos, rot, float("nan"))
+    with pytest.raises(ValueError, match="root"):
+        jiggle_step(rig, state, np.zeros(creature.nbody, np.bool_), pos, rot, 1 / 60)
+    with pytest.raises(ValueError, match="damping"):
+        rig.with_params(damping_ratio=np.zeros(creature.nbody))
+
+
+def test_flexibility_heuristic_orders(creature):
+    rig = JiggleRig.for_creature(creature)
+    f = rig.omega / (2 * np.pi)
+    b = creature.body
+    assert f[b("tail3")] < f[b("tail1")]          # placement: further out is floppier
+    assert f[b("ear_l")] < f[b("head")]           # capability: ears flop
+    big_def = creature.to_def()
+    for body in big_def.bodies:
+        body.pos = tuple(10 * v for v in body.pos)
+        body.joint = tuple(10 * v for v in body.joint)
+        body.extents = tuple(10 * v for v in body.extents)
+    big = build_creature(big_def)
+    assert JiggleRig.for_creature(big).omega[b("tail1")] < rig.omega[b("tail1")]  # size
