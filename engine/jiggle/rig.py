@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.jiggle._kernels import jiggle_kernel
-from engine.model.caps import (DETAIL, EAR, EYE, FOOT, GRASPER, HEAD, LIMB, MOUTH, SPIKE,
-                               SPINE, TAIL, WING)
+from engine.mathx.quat import quat_rotate
+from engine.model.caps import DETAIL, EAR, EYE, FOOT, GRASPER, HEAD, LIMB, MOUTH, SPIKE, SPINE, TAIL, WING
 from engine.model.creature import Creature
 
 # (capability bit, frequency Hz, damping ratio), first match wins.
@@ -97,7 +97,6 @@ def _levers(creature: Creature) -> np.ndarray:
             # Point it away from the parent's joint if we can tell.
             if i > 0:
                 away = creature.body_rest_pos[i] - creature.body_rest_pos[creature.body_parent[i]]
-                from engine.mathx.quat import quat_rotate
                 if float(quat_rotate(creature.body_rest_rot[i], v) @ away) < 0.0:
                     v = -v
             lever[i] = v
