@@ -518,20 +518,13 @@ def mat4_from_pose(pos, q):
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def quat_between_into(u, v, out):
-    """out = the shortest-arc (minimal-twist) rotation taking direction u to direction v:
-    rotation about u x v by the angle between them, so nothing turns about u itself.
-    Lengths do not matter. A zero-length u or v gives the identity. Exactly (or, to
-    |u x v| < 1e-12, numerically) opposite directions give 180 degrees about a fixed axis
-    perpendicular to u: u x e_k, with e_k the coordinate axis least aligned with u (the
-    lowest k on ties), normalized. (Hecker 2008 sec 4.3.2 builds spine frames from these.)
-    """
-    ux, uy, uz = u[0], u[1], u[2]
-    vx, vy, vz = v[0], v[1], v[2]
+def _between_scalars(ux, uy, uz, vx, vy, vz):
+    # quat_between on scalars, returning (w, x, y, z): shared with the frame transport
+    # kernels, which keep their tangents in registers rather than scratch arrays.
     nu = math.sqrt(ux * ux + uy * uy + uz * uz)
     nv = math.sqrt(vx * vx + vy * vy + vz * vz)
     if not (nu > 0.0 and nu < np.inf and nv > 0.0 and nv < np.inf):
-        return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
+        return 1.0, 0.0, 0.0, 0.0
     ux, uy, uz = ux / nu, uy / nu, uz / nu
     vx, vy, vz = vx / nv, vy / nv, vz / nv
     d = ux * vx + uy * vy + uz * vz
@@ -548,12 +541,33 @@ def quat_between_into(u, v, out):
             px, py, pz = -uz, 0.0, ux          # u x e_y
         else:
             px, py, pz = uy, -ux, 0.0          # u x e_z
-        return _normalize4_into(0.0, px, py, pz, out)
+        n = math.sqrt(px * px + py * py + pz * pz)
+        return 0.0, px / n, py / n, pz / n
     # (1 + cos a, sin a * axis) = 2 cos(a/2) (cos(a/2), sin(a/2) axis): normalizing gives
     # the half-angle quaternion without any trigonometry. 1 + cos a is computed as
     # |u + v|^2 / 2, which keeps its relative precision when u and v nearly oppose.
     hx, hy, hz = ux + vx, uy + vy, uz + vz
-    return _normalize4_into(0.5 * (hx * hx + hy * hy + hz * hz), cx, cy, cz, out)
+    w = 0.5 * (hx * hx + hy * hy + hz * hz)
+    n = math.sqrt(w * w + cx * cx + cy * cy + cz * cz)
+    return w / n, cx / n, cy / n, cz / n
+
+
+@njit(cache=True)
+def quat_between_into(u, v, out):
+    """out = the shortest-arc (minimal-twist) rotation taking direction u to direction v:
+    rotation about u x v by the angle between them, so nothing turns about u itself.
+    Lengths do not matter. A zero-length (or non-finite) u or v gives the identity.
+    Exactly (or, to |u x v| < 1e-12, numerically) opposite directions give 180 degrees
+    about a fixed axis perpendicular to u: u x e_k, with e_k the coordinate axis least
+    aligned with u (the lowest k on ties), normalized. (Hecker 2008 sec 4.3.2 builds
+    spine and limb orientations from these.)
+    """
+    w, x, y, z = _between_scalars(u[0], u[1], u[2], v[0], v[1], v[2])
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)

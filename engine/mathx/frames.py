@@ -1,0 +1,132 @@
+"""Frames carried along curves: minimal-twist rotations and parallel frame transport.
+
+Hecker 2008 sec 4.3.2 rebuilds a creature's spine from a few IK particles: the
+orientation of a particle's spine body is its root-relative rest orientation turned by
+"the minimal-twist rotation between" its rest tangent and its posed tangent
+(``minimal_twist_rotate``), and the spine bodies between particles are placed by
+stepping along the posed spine spline "transporting a coordinate frame" with it
+(``frame_transport``). Both turn frames only about axes perpendicular to the tangent, so
+a spine never picks up twist it did not have at rest.
+
+All functions are ``@njit(cache=True)``, float64, quaternions (w, x, y, z).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from engine.mathx.quat import _between_scalars
+
+
+@njit(cache=True)
+def minimal_twist_rotate_into(rest_rot, rest_dir, new_dir, out):
+    """out = quat_between(rest_dir, new_dir) * rest_rot: the rest orientation turned by
+    the shortest-arc rotation taking the rest tangent to the new one (Hecker 2008 sec
+    4.3.2: "construct the minimal-twist rotation between these tangents and use it to
+    rotate the root-relative rest orientation"). A zero-length direction leaves
+    rest_rot unchanged. out may alias any input."""
+    rw, rx, ry, rz = rest_rot[0], rest_rot[1], rest_rot[2], rest_rot[3]
+    sw, sx, sy, sz = _between_scalars(rest_dir[0], rest_dir[1], rest_dir[2],
+                                      new_dir[0], new_dir[1], new_dir[2])
+    out[0] = sw * rw - sx * rx - sy * ry - sz * rz
+    out[1] = sw * rx + sx * rw + sy * rz - sz * ry
+    out[2] = sw * ry - sx * rz + sy * rw + sz * rx
+    out[3] = sw * rz + sx * ry - sy * rx + sz * rw
+    return out
+
+
+@njit(cache=True)
+def minimal_twist_rotate(rest_rot, rest_dir, new_dir):
+    """quat_between(rest_dir, new_dir) * rest_rot, a new (4,) array."""
+    return minimal_twist_rotate_into(rest_rot, rest_dir, new_dir, np.empty(4))
+
+
+@njit(cache=True)
+def polyline_tangent_into(points, i, out):
+    """out (3,) = the (unnormalized) tangent of the polyline ``points`` (n, 3) at point i
+    used by ``frame_transport``: the central difference points[i+1] - points[i-1] at
+    interior points (parallel to the circle's tangent at evenly spaced points of a
+    circle, and to (p_{i+1} - p_{i-1}) / 2 of Hecker 2008 sec 4.3.2), the one-sided
+    difference points[1] - points[0] at the first point and points[n-1] - points[n-2]
+    at the last. A single point has tangent 0."""
+    n = points.shape[0]
+    if n < 2:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+        return out
+    lo = i - 1 if i > 0 else 0
+    hi = i + 1 if i < n - 1 else n - 1
+    for k in range(3):
+        out[k] = points[hi, k] - points[lo, k]
+    return out
+
+
+@njit(cache=True)
+def _transport(points, t0x, t0y, t0z, rot0, out_rots):
+    # Parallel transport (Hecker 2008 sec 4.3.2, "frame transport"): each frame is the
+    # previous one turned by the minimal-twist rotation between their tangents, so the
+    # frame turns only with the curve and never about it. A zero tangent (repeated
+    # points) carries the frame unchanged and is skipped as a reference, so the next
+    # nonzero tangent is compared with the last nonzero one. (t0x, t0y, t0z) is the
+    # tangent rot0 belongs to; zero means rot0 already sits at point 0. Scalars only:
+    # nothing is allocated.
+    n = points.shape[0]
+    px, py, pz = t0x, t0y, t0z
+    have_prev = px * px + py * py + pz * pz > 0.0
+    rw, rx, ry, rz = rot0[0], rot0[1], rot0[2], rot0[3]
+    for i in range(n):
+        # Tangent at point i (see polyline_tangent_into).
+        lo = i - 1 if i > 0 else 0
+        hi = i + 1 if i < n - 1 else n - 1
+        cx = points[hi, 0] - points[lo, 0]
+        cy = points[hi, 1] - points[lo, 1]
+        cz = points[hi, 2] - points[lo, 2]
+        if cx * cx + cy * cy + cz * cz > 0.0:
+            if have_prev:
+                sw, sx, sy, sz = _between_scalars(px, py, pz, cx, cy, cz)
+                rw, rx, ry, rz = (sw * rw - sx * rx - sy * ry - sz * rz,
+                                  sw * rx + sx * rw + sy * rz - sz * ry,
+                                  sw * ry - sx * rz + sy * rw + sz * rx,
+                                  sw * rz + sx * ry - sy * rx + sz * rw)
+                # Renormalize so a long polyline does not drift off unit length.
+                nrm = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
+                rw, rx, ry, rz = rw / nrm, rx / nrm, ry / nrm, rz / nrm
+            px, py, pz = cx, cy, cz
+            have_prev = True
+        out_rots[i, 0] = rw
+        out_rots[i, 1] = rx
+        out_rots[i, 2] = ry
+        out_rots[i, 3] = rz
+    return out_rots
+
+
+@njit(cache=True)
+def frame_transport_into(points, rot0, out_rots, tangent0=None):
+    """Parallel-transport the unit orientation rot0 along the polyline ``points`` (n, 3),
+    writing out_rots (n, 4); allocates nothing.
+
+    The tangent at each point is ``polyline_tangent_into``'s: points[i+1] - points[i-1]
+    inside, points[1] - points[0] at the first point, points[n-1] - points[n-2] at the
+    last. out_rots[i] = quat_between(tangent[i-1], tangent[i]) * out_rots[i-1], so the
+    frame turns only about axes perpendicular to the curve (no twist about it).
+
+    Without tangent0, rot0 is the frame at point 0: out_rots[0] = rot0. With tangent0
+    (3,), rot0 is a frame that belongs to the direction tangent0 (say, a rest tangent)
+    and is first turned onto the polyline: out_rots[0] = quat_between(tangent0,
+    tangent[0]) * rot0. Repeated points (zero tangents) carry the frame unchanged, and a
+    single point keeps rot0.
+    """
+    if tangent0 is None:
+        return _transport(points, 0.0, 0.0, 0.0, rot0, out_rots)
+    return _transport(points, tangent0[0], tangent0[1], tangent0[2], rot0, out_rots)
+
+
+@njit(cache=True)
+def frame_transport(points, tangent0, rot0):
+    """Orientations (n, 4) of the frame rot0, which belongs to direction tangent0,
+    parallel-transported along ``points`` (n, 3); see ``frame_transport_into``."""
+    return frame_transport_into(points, rot0, np.empty((points.shape[0], 4)), tangent0)
