@@ -1,0 +1,317 @@
+"""The Menagerie viewer: look at creatures in a window, or write pictures of them.
+
+Entry points::
+
+    view(scene_or_creatures)              # a window with an orbit camera; a PNG when no display
+    view_file("creatures/spider.yaml")    # `menagerie view FILE.yaml`
+    view_file(path, snapshot="out.png")   # `menagerie view FILE.yaml --snapshot out.png`
+    snapshot_creatures(creatures, "zoo.png", normalize_size=True)   # the zoo picture
+
+The window (``ViewerWindow``) shows "pages": for several actors, first all of them, then
+each alone. Controls:
+
+    left drag         orbit                 right drag / scroll   zoom
+    middle drag       pan (or shift + left drag)
+    left / right      previous / next page  (also page up / page down, n / p)
+    a                 the page with everyone
+    f                 frame the page again  j  joints and links   g  grid   e  edges
+    l                 labels                s  save a PNG of the window in the current folder
+    h                 show or hide this help                      escape / q  close
+
+The window logic is plain pyglet event handlers around a ``Renderer``; the test suite
+drives it headless by dispatching events.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from authoring import render as rd
+from authoring import scene as sc
+from engine.model.creature import Creature
+
+HELP_TEXT = ("drag: orbit   right drag/scroll: zoom   middle or shift drag: pan   "
+             "\u2190/\u2192: page   a: all   f: frame   j/g/e/l: joints/grid/edges/labels   "
+             "s: save PNG   h: help   q: quit")
+
+#: Orbit speed (radians per pixel dragged) and zoom speed (per pixel dragged / per wheel notch).
+ORBIT_PER_PIXEL = 0.008
+ZOOM_PER_PIXEL = 0.01
+ZOOM_PER_NOTCH = 0.88
+
+
+def _load_creatures(items) -> list[Creature]:
+    """Creatures from Creature objects and/or creature file paths."""
+    import engine
+
+    out = []
+    for item in items:
+        if isinstance(item, Creature):
+            out.append(item)
+        elif isinstance(item, (str, os.PathLike)):
+            out.append(engine.load_creature(item))
+        else:
+            raise sc.SceneError(f"expected a Creature or a creature file path, got "
+                                f"{type(item).__name__}", kind="creature")
+    return out
+
+
+# -- pictures ------------------------------------------------------------------------------------
+
+
+def snapshot_creatures(creatures, path, width: int = 1280, height: int = 720, *,
+                       normalize_size: bool = True, columns: int | None = None,
+                       labels: bool = True, show_joints: bool = False) -> str:
+    """A picture of many creatures at rest on a grid (``scene.layout_zoo``), written to
+    ``path`` as PNG. ``creatures``: Creature objects or creature file paths.
+    ``normalize_size`` draws every creature at the same size (its largest side 1 m) so
+    giants and mites are all visible; labels then give each one's scale. Returns the path."""
+    zoo = sc.layout_zoo(_load_creatures(creatures), columns=columns,
+                        normalize_size=normalize_size, labels=labels)
+    for a in zoo.actors:
+        a.show_joints = show_joints
+        a.show_links = show_joints
+    return rd.render_png(zoo, path, width, height)
+
+
+def view_file(path, snapshot=None, *, width: int = 1280, height: int = 720):
+    """Show the creature file ``path``; with ``snapshot`` write that PNG instead (no
+    window). Without a display a snapshot is written next to the file's name in the
+    current folder. Returns the PNG path, or None after an interactive session.
+    A bad file raises ``engine.errors.CreatureError`` naming the file and line."""
+    import engine
+
+    creature = engine.load_creature(path)
+    scene = sc.Scene(actors=[sc.Actor(creature, label=creature.name)])
+    if snapshot is not None:
+        return rd.render_png(scene, snapshot, width, height)
+    return view(scene, width=width, height=height,
+                fallback_path=f"{os.path.splitext(os.path.basename(str(path)))[0]}.png")
+
+
+def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
+         update: Callable[[float], None] | None = None, title: str = "Menagerie",
+         fallback_path: str | None = None):
+    """Open the interactive viewer on a Scene, an Actor, a Creature or a list of them.
+
+    ``update(dt)`` is called before every frame (the demo moves its actors there).
+    Without a display (or with ``MENAGERIE_HEADLESS=1``) no window can open: a snapshot
+    is written to ``fallback_path`` (default ``menagerie_view.png``) instead, the path is
+    printed and returned. Returns None after the window is closed.
+    """
+    if isinstance(scene_or_creatures, (list, tuple)) and scene_or_creatures and all(
+            isinstance(c, (Creature, str, os.PathLike)) for c in scene_or_creatures):
+        pages = creature_pages(_load_creatures(scene_or_creatures))
+    else:
+        pages = scene_pages(sc.scene_for(scene_or_creatures))
+    if rd.want_headless():
+        out = fallback_path or "menagerie_view.png"
+        rd.render_png(pages[0], out, width, height)
+        print(f"menagerie view: no display here (DISPLAY is not set), wrote {out} instead")
+        return out
+    pyglet = rd.load_pyglet(headless=False)
+    window = ViewerWindow.create(pages, width=width, height=height, update=update, title=title)
+    try:
+        pyglet.app.run()
+    finally:
+        window.renderer.close()
+    return None
+
+
+# -- pages -----------------------------------------------------------------------------------------
+
+
+def scene_pages(scene: sc.Scene) -> list[sc.Scene]:
+    """The whole scene, then (for more than one actor) each actor alone with the overlays."""
+    pages = [scene]
+    if len(scene.actors) > 1:
+        for a in scene.actors:
+            pages.append(sc.Scene(actors=[a], points=scene.points, segments=scene.segments,
+                                  polylines=scene.polylines, labels=scene.labels,
+                                  show_grid=scene.show_grid, show_edges=scene.show_edges,
+                                  overlay_hidden_alpha=scene.overlay_hidden_alpha,
+                                  background=scene.background))
+    return pages
+
+
+def creature_pages(creatures: Sequence[Creature]) -> list[sc.Scene]:
+    """A zoo of all creatures at a common size, then each creature alone at its true size."""
+    if len(creatures) == 1:
+        return [sc.Scene(actors=[sc.Actor(creatures[0], label=creatures[0].name)])]
+    pages = [sc.layout_zoo(creatures, normalize_size=True)]
+    for a in pages[0].actors:
+        a.show_joints = a.show_links = False
+    pages += [sc.Scene(actors=[sc.Actor(c, label=c.name)]) for c in creatures]
+    return pages
+
+
+# -- the window ------------------------------------------------------------------------------------
+
+
+class ViewerWindow:
+    """An interactive window over a list of pages (scenes). Build with ``create``; the
+    pyglet window is ``self.window``, its renderer ``self.renderer``."""
+
+    def __init__(self) -> None:  # use create()
+        raise TypeError("use ViewerWindow.create(pages, ...)")
+
+    @classmethod
+    def create(cls, pages: Sequence[sc.Scene], *, width: int = 1280, height: int = 720,
+               update: Callable[[float], None] | None = None, title: str = "Menagerie",
+               visible: bool = True) -> ViewerWindow:
+        """Open the window (pyglet must already be loaded, see ``render.load_pyglet``)."""
+        import pyglet
+        from pyglet.window import key, mouse
+
+        self = object.__new__(cls)
+        if not pages:
+            raise sc.SceneError("nothing to view: no pages", kind="viewer")
+        self.pages = list(pages)
+        self.page = 0
+        self.update = update
+        self.show_help = True
+        self.last_saved: str | None = None
+        try:
+            config = pyglet.gl.Config(double_buffer=True, sample_buffers=1, samples=4)
+            window = pyglet.window.Window(width, height, caption=title, resizable=True,
+                                          config=config, visible=visible)
+        except Exception:  # no multisampled config on this display: take the default
+            window = pyglet.window.Window(width, height, caption=title, resizable=True,
+                                          visible=visible)
+        self.window = window
+        fw, fh = window.get_framebuffer_size()
+        self.renderer = rd.Renderer(fw, fh, window=window)
+        self.camera = self.renderer.frame(self.pages[0])
+        self._help = pyglet.text.Label(HELP_TEXT, x=8, y=8, font_size=10,
+                                       color=(40, 42, 48, 255))
+        self._title = pyglet.text.Label("", x=8, y=fh - 8, anchor_y="top", font_size=12,
+                                        color=(30, 32, 38, 255))
+        self._key, self._mouse = key, mouse
+
+        @window.event
+        def on_draw():
+            self.draw()
+
+        @window.event
+        def on_resize(w, h):
+            fw, fh = window.get_framebuffer_size()
+            self.renderer.resize(fw, fh)
+            self._title.y = fh - 8
+            return pyglet.event.EVENT_HANDLED
+
+        @window.event
+        def on_mouse_drag(x, y, dx, dy, buttons, modifiers):
+            self.drag(dx, dy, buttons, modifiers)
+
+        @window.event
+        def on_mouse_scroll(x, y, scroll_x, scroll_y):
+            self.camera.zoom(ZOOM_PER_NOTCH ** scroll_y)
+
+        @window.event
+        def on_key_press(symbol, modifiers):
+            return self.key(symbol, modifiers)
+
+        @window.event
+        def on_close():
+            pyglet.app.exit()
+
+        if update is not None:
+            pyglet.clock.schedule_interval(self._tick, 1 / 60)
+        return self
+
+    def _tick(self, dt: float) -> None:
+        if self.update is not None:
+            self.update(dt)
+
+    # -- state changes (each one is a plain method so tests can call it) ---------------------
+
+    @property
+    def scene(self) -> sc.Scene:
+        return self.pages[self.page]
+
+    def go(self, page: int) -> None:
+        """Show page ``page`` (wraps around) and frame it."""
+        self.page = page % len(self.pages)
+        self.reframe()
+
+    def reframe(self) -> None:
+        r = self.renderer
+        self.camera = self.scene.auto_camera(r.width / r.height)
+
+    def drag(self, dx: float, dy: float, buttons: int, modifiers: int) -> None:
+        mouse, key = self._mouse, self._key
+        if buttons & mouse.MIDDLE or (buttons & mouse.LEFT and modifiers & key.MOD_SHIFT):
+            self.camera.pan(dx, dy, self.renderer.height)
+        elif buttons & mouse.LEFT:
+            self.camera.orbit(-dx * ORBIT_PER_PIXEL, -dy * ORBIT_PER_PIXEL)
+        elif buttons & mouse.RIGHT:
+            self.camera.zoom(math.exp(-dy * ZOOM_PER_PIXEL))
+
+    def key(self, symbol: int, modifiers: int):
+        import pyglet
+
+        k = self._key
+        scene = self.scene
+        if symbol in (k.RIGHT, k.PAGEDOWN, k.N):
+            self.go(self.page + 1)
+        elif symbol in (k.LEFT, k.PAGEUP, k.P):
+            self.go(self.page - 1)
+        elif symbol == k.A:
+            self.go(0)
+        elif symbol in (k.F, k.HOME):
+            self.reframe()
+        elif symbol == k.J:
+            on = not any(a.show_joints or a.show_links for a in scene.actors)
+            for a in scene.actors:
+                a.show_joints = a.show_links = on
+        elif symbol == k.G:
+            scene.show_grid = not scene.show_grid
+        elif symbol == k.E:
+            scene.show_edges = not scene.show_edges
+        elif symbol == k.L:
+            scene.show_labels = not scene.show_labels
+        elif symbol == k.H:
+            self.show_help = not self.show_help
+        elif symbol == k.S:
+            self.save()
+        elif symbol in (k.ESCAPE, k.Q):
+            self.window.close()
+            pyglet.app.exit()
+            return pyglet.event.EVENT_HANDLED
+        else:
+            return None
+        return pyglet.event.EVENT_HANDLED
+
+    def save(self, path: str | None = None) -> str:
+        """Write the current picture (without the help text) as PNG; returns the path."""
+        if path is None:
+            n = 1
+            while os.path.exists(f"menagerie_{n:03d}.png"):
+                n += 1
+            path = f"menagerie_{n:03d}.png"
+        self.renderer.draw(self.scene, self.camera)
+        self.renderer.save_png(path)
+        self.last_saved = path
+        print(f"menagerie view: wrote {path}")
+        return path
+
+    def draw(self) -> np.ndarray | None:
+        """Draw the current page into the window."""
+        from pyglet import gl
+
+        self.renderer.draw(self.scene, self.camera)
+        self.window.switch_to()
+        self.renderer.present()
+        fw, fh = self.window.get_framebuffer_size()
+        gl.glViewport(0, 0, fw, fh)
+        names = ", ".join(a.creature.name for a in self.scene.actors[:6])
+        more = "" if len(self.scene.actors) <= 6 else f" and {len(self.scene.actors) - 6} more"
+        self._title.text = f"{self.page + 1}/{len(self.pages)}  {names}{more}"
+        self._title.draw()
+        if self.show_help:
+            self._help.draw()
+        return None
