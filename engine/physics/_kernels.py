@@ -1,0 +1,889 @@
+"""Numba kernels of the rigid-body integrator (see ``engine.physics.world`` for the API).
+
+Formulation: substepped sequential impulses with soft constraints ("soft step", Catto,
+Box2D v3 ``solver.c``), in 3-D. Each substep of length h:
+
+    1. prepare      world inverse inertia, joint anchors and 3x3 effective masses,
+                    contact detection (ground features vs terrain, capsule pairs across
+                    characters) and contact effective masses
+    2. velocities   gravity, user forces, the proportional velocity controller
+                    (implicit), gyroscopic term (implicit, one Newton step in the body
+                    frame), so thin fast-spinning limbs do not gain energy
+    3. warm start   last substep's accumulated impulses (slots are persistent: ground
+                    features and body pairs have fixed indices)
+    4. solve        ball joints, locked joints, PD servos, contacts (with bias: soft
+                    springs push drift out)
+    5. positions    x += h v, q += h/2 (0, w) q
+    6. relax        the same constraints without position bias, so the bias velocity
+                    that pushed drift out does not stay in the bodies as energy
+
+Why this formulation (issue 7): a ragdoll of a creature has mass ratios of 100:1 and
+more (a CMU hand bone vs the hips). Plain penalty joints need stiffness that explodes
+with the mass ratio; sequential impulses with a 3x3 effective mass per ball joint handle
+the ratio exactly for one joint, and substepping (tiny h) makes Gauss-Seidel across the
+chain converge because the error per substep is O(h^2). Soft constraints (b2MakeSoft)
+are implicit springs, so the PD servos and the contact penalty are stable for any h and
+any gain, and every stiffness is a frequency in Hz with a damping ratio, mass-normalized
+by the constraint's effective mass: one setting works for a mouse and for a giant.
+
+Soft constraint (b2MakeSoft, derived): a unit-mass spring-damper x'' = -w^2 x - 2 z w x'
+integrated with implicit Euler over h gives the impulse
+    lambda = -m_eff * mass_scale * (Cdot + bias_rate * C) - impulse_scale * lambda_acc
+with w = 2 pi hz, a1 = 2 z + h w, a2 = h w a1, a3 = 1 / (1 + a2),
+bias_rate = w / a1, mass_scale = a2 a3, impulse_scale = a3. hz = 0 means rigid.
+
+Contacts (Zordan et al. 2005, section 5): feet use the paper's custom handler, a
+penalty spring-damper (here integrated implicitly as a soft contact) with Coulomb
+friction and a rotational friction about the normal that stops free spinning; other
+ground contacts and contacts between bodies of two characters have their own frequency,
+damping ratio and friction. Contacts are speculative (a body approaching the ground or
+another body is stopped exactly at the surface within one substep: bias = sep / h), so
+nothing tunnels at the speeds a heavy kick gives.
+
+All arrays are float64 / int32, C order. Kernels take two NamedTuples of arrays (the
+model ``m`` and the state ``s``) and scalars; they allocate nothing.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+# -- indices into ModelArrays.params (float64) -------------------------------------------
+P_GRAVITY_X, P_GRAVITY_Y, P_GRAVITY_Z = 0, 1, 2
+P_FOOT_HZ, P_FOOT_ZETA, P_FOOT_MU, P_FOOT_SPIN_MU = 3, 4, 5, 6
+P_GROUND_HZ, P_GROUND_ZETA, P_GROUND_MU, P_GROUND_SPIN_MU = 7, 8, 9, 10
+P_PAIR_HZ, P_PAIR_ZETA, P_PAIR_MU = 11, 12, 13
+P_JOINT_HZ, P_JOINT_ZETA = 14, 15
+P_MAX_PUSH, P_MARGIN = 16, 17
+P_TERRAIN_X0, P_TERRAIN_Y0, P_TERRAIN_CELL = 18, 19, 20
+NPARAM = 21
+
+# contact kinds per body
+KIND_NONE, KIND_GROUND, KIND_FOOT = 0, 1, 2
+
+
+# ---------------------------------------------------------------------------------------
+# Small scalar helpers (tuples, no arrays: numba keeps them in registers)
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@njit(cache=True)
+def _qrot(w, x, y, z, vx, vy, vz):
+    """Rotate v by the unit quaternion (w, x, y, z): v + w t + q_v x t, t = 2 q_v x v."""
+    tx, ty, tz = _cross(x, y, z, vx, vy, vz)
+    tx *= 2.0
+    ty *= 2.0
+    tz *= 2.0
+    cx, cy, cz = _cross(x, y, z, tx, ty, tz)
+    return vx + w * tx + cx, vy + w * ty + cy, vz + w * tz + cz
+
+
+@njit(cache=True)
+def _qmul(aw, ax, ay, az, bw, bx, by, bz):
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+@njit(cache=True)
+def _qrotvec(w, x, y, z):
+    """Rotation vector (axis * angle, shortest way) of a unit quaternion."""
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-12:
+        return 2.0 * x, 2.0 * y, 2.0 * z
+    angle = 2.0 * math.atan2(s, w)
+    k = angle / s
+    return k * x, k * y, k * z
+
+
+@njit(cache=True)
+def _mat3_vec(M, i, vx, vy, vz):
+    """M[i] @ v for a stack of 3x3 matrices."""
+    return (M[i, 0, 0] * vx + M[i, 0, 1] * vy + M[i, 0, 2] * vz,
+            M[i, 1, 0] * vx + M[i, 1, 1] * vy + M[i, 1, 2] * vz,
+            M[i, 2, 0] * vx + M[i, 2, 1] * vy + M[i, 2, 2] * vz)
+
+
+@njit(cache=True)
+def _soft(hz, zeta, h):
+    """b2MakeSoft: (bias_rate, mass_scale, impulse_scale); hz <= 0 is rigid."""
+    if hz <= 0.0:
+        return 0.0, 1.0, 0.0
+    omega = 2.0 * math.pi * hz
+    a1 = 2.0 * zeta + h * omega
+    a2 = h * omega * a1
+    a3 = 1.0 / (1.0 + a2)
+    return omega / a1, a2 * a3, a3
+
+
+@njit(cache=True)
+def _inv3_sym_into(a00, a01, a02, a11, a12, a22, out, i):
+    """Inverse of a symmetric 3x3 matrix into out[i]; a singular matrix gives zeros
+    (a constraint between two static bodies, which then does nothing)."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    if abs(det) < 1e-300:
+        for r in range(3):
+            for c in range(3):
+                out[i, r, c] = 0.0
+        return
+    inv = 1.0 / det
+    out[i, 0, 0] = c00 * inv
+    out[i, 0, 1] = c01 * inv
+    out[i, 0, 2] = c02 * inv
+    out[i, 1, 0] = c01 * inv
+    out[i, 1, 1] = (a00 * a22 - a02 * a02) * inv
+    out[i, 1, 2] = (a02 * a01 - a00 * a12) * inv
+    out[i, 2, 0] = c02 * inv
+    out[i, 2, 1] = out[i, 1, 2]
+    out[i, 2, 2] = (a00 * a11 - a01 * a01) * inv
+
+
+# ---------------------------------------------------------------------------------------
+# Applying impulses
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _apply(m, s, b, rx, ry, rz, px, py, pz, sign):
+    """Linear impulse sign*P at offset r (world, from the COM) on body b (-1: ground)."""
+    if b < 0:
+        return
+    im = m.body_inv_mass[b] * sign
+    s.body_linvel[b, 0] += im * px
+    s.body_linvel[b, 1] += im * py
+    s.body_linvel[b, 2] += im * pz
+    tx, ty, tz = _cross(rx, ry, rz, px, py, pz)
+    dx, dy, dz = _mat3_vec(s.body_iinv_world, b, tx, ty, tz)
+    s.body_angvel[b, 0] += sign * dx
+    s.body_angvel[b, 1] += sign * dy
+    s.body_angvel[b, 2] += sign * dz
+
+
+@njit(cache=True)
+def _apply_ang(s, b, lx, ly, lz, sign):
+    """Angular impulse sign*L on body b (-1: ground)."""
+    if b < 0:
+        return
+    dx, dy, dz = _mat3_vec(s.body_iinv_world, b, lx, ly, lz)
+    s.body_angvel[b, 0] += sign * dx
+    s.body_angvel[b, 1] += sign * dy
+    s.body_angvel[b, 2] += sign * dz
+
+
+@njit(cache=True)
+def _point_vel(s, b, rx, ry, rz):
+    if b < 0:
+        return 0.0, 0.0, 0.0
+    wx, wy, wz = s.body_angvel[b, 0], s.body_angvel[b, 1], s.body_angvel[b, 2]
+    cx, cy, cz = _cross(wx, wy, wz, rx, ry, rz)
+    return s.body_linvel[b, 0] + cx, s.body_linvel[b, 1] + cy, s.body_linvel[b, 2] + cz
+
+
+@njit(cache=True)
+def _inv_mass_dir(m, s, b, rx, ry, rz, dx, dy, dz):
+    """Inverse effective mass of body b at r along unit direction d: 1/m + (r x d).I^-1(r x d)."""
+    if b < 0:
+        return 0.0
+    cx, cy, cz = _cross(rx, ry, rz, dx, dy, dz)
+    ix, iy, iz = _mat3_vec(s.body_iinv_world, b, cx, cy, cz)
+    return m.body_inv_mass[b] + cx * ix + cy * iy + cz * iz
+
+
+@njit(cache=True)
+def _world_point(m, s, b, lx, ly, lz):
+    q = s.body_rot
+    rx, ry, rz = _qrot(q[b, 0], q[b, 1], q[b, 2], q[b, 3], lx, ly, lz)
+    return s.body_pos[b, 0] + rx, s.body_pos[b, 1] + ry, s.body_pos[b, 2] + rz
+
+
+# ---------------------------------------------------------------------------------------
+# Terrain: a height grid, bilinear, clamped at its edges; the normal from its gradient
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def terrain_sample(height, x0, y0, cell, x, y):
+    """(height, nx, ny, nz) of the terrain at (x, y). A 1x1 grid is a flat plane."""
+    nxg, nyg = height.shape[0], height.shape[1]
+    if nxg < 2 or nyg < 2:
+        return height[0, 0], 0.0, 0.0, 1.0
+    u = (x - x0) / cell
+    v = (y - y0) / cell
+    u = min(max(u, 0.0), nxg - 1.000000001)
+    v = min(max(v, 0.0), nyg - 1.000000001)
+    i = int(u)
+    j = int(v)
+    fu = u - i
+    fv = v - j
+    h00 = height[i, j]
+    h10 = height[i + 1, j]
+    h01 = height[i, j + 1]
+    h11 = height[i + 1, j + 1]
+    hz = (h00 * (1 - fu) * (1 - fv) + h10 * fu * (1 - fv) + h01 * (1 - fu) * fv + h11 * fu * fv)
+    dhdx = ((h10 - h00) * (1 - fv) + (h11 - h01) * fv) / cell
+    dhdy = ((h01 - h00) * (1 - fu) + (h11 - h10) * fu) / cell
+    inv = 1.0 / math.sqrt(dhdx * dhdx + dhdy * dhdy + 1.0)
+    return hz, -dhdx * inv, -dhdy * inv, inv
+
+
+@njit(cache=True)
+def _tangents(nx, ny, nz):
+    """Two unit tangents of unit normal n, chosen deterministically."""
+    if abs(nx) < 0.57735:
+        ax, ay, az = 1.0, 0.0, 0.0
+    else:
+        ax, ay, az = 0.0, 1.0, 0.0
+    t1x, t1y, t1z = _cross(nx, ny, nz, ax, ay, az)
+    inv = 1.0 / math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
+    t1x *= inv
+    t1y *= inv
+    t1z *= inv
+    t2x, t2y, t2z = _cross(nx, ny, nz, t1x, t1y, t1z)
+    return t1x, t1y, t1z, t2x, t2y, t2z
+
+
+@njit(cache=True)
+def _closest_segments(p1x, p1y, p1z, q1x, q1y, q1z, p2x, p2y, p2z, q2x, q2y, q2z):
+    """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson 5.1.9)."""
+    d1x, d1y, d1z = q1x - p1x, q1y - p1y, q1z - p1z
+    d2x, d2y, d2z = q2x - p2x, q2y - p2y, q2z - p2z
+    rx, ry, rz = p1x - p2x, p1y - p2y, p1z - p2z
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-12
+    if a <= eps and e <= eps:
+        return 0.0, 0.0
+    if a <= eps:
+        return 0.0, min(max(f / e, 0.0), 1.0)
+    c = d1x * rx + d1y * ry + d1z * rz
+    if e <= eps:
+        return min(max(-c / a, 0.0), 1.0), 0.0
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denom = a * e - b * b
+    sp = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > eps else 0.0
+    t = (b * sp + f) / e
+    if t < 0.0:
+        t = 0.0
+        sp = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        sp = min(max((b - c) / a, 0.0), 1.0)
+    return sp, t
+
+
+# ---------------------------------------------------------------------------------------
+# 1. prepare
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _prepare(m, s, h):
+    n = s.body_pos.shape[0]
+    # World inverse inertia R diag(I^-1) R^T (zero for fixed bodies).
+    for b in range(n):
+        w, x, y, z = s.body_rot[b, 0], s.body_rot[b, 1], s.body_rot[b, 2], s.body_rot[b, 3]
+        r00 = 1 - 2 * (y * y + z * z)
+        r01 = 2 * (x * y - w * z)
+        r02 = 2 * (x * z + w * y)
+        r10 = 2 * (x * y + w * z)
+        r11 = 1 - 2 * (x * x + z * z)
+        r12 = 2 * (y * z - w * x)
+        r20 = 2 * (x * z - w * y)
+        r21 = 2 * (y * z + w * x)
+        r22 = 1 - 2 * (x * x + y * y)
+        i0, i1, i2 = m.body_inv_inertia[b, 0], m.body_inv_inertia[b, 1], m.body_inv_inertia[b, 2]
+        M = s.body_iinv_world
+        M[b, 0, 0] = r00 * r00 * i0 + r01 * r01 * i1 + r02 * r02 * i2
+        M[b, 0, 1] = r00 * r10 * i0 + r01 * r11 * i1 + r02 * r12 * i2
+        M[b, 0, 2] = r00 * r20 * i0 + r01 * r21 * i1 + r02 * r22 * i2
+        M[b, 1, 1] = r10 * r10 * i0 + r11 * r11 * i1 + r12 * r12 * i2
+        M[b, 1, 2] = r10 * r20 * i0 + r11 * r21 * i1 + r12 * r22 * i2
+        M[b, 2, 2] = r20 * r20 * i0 + r21 * r21 * i1 + r22 * r22 * i2
+        M[b, 1, 0] = M[b, 0, 1]
+        M[b, 2, 0] = M[b, 0, 2]
+        M[b, 2, 1] = M[b, 1, 2]
+
+    # Joints: world anchors (from each COM) and the inverse 3x3 effective masses
+    # K = (1/ma + 1/mb) E - [ra]x Ia^-1 [ra]x - [rb]x Ib^-1 [rb]x (point constraint) and
+    # K = Ia^-1 + Ib^-1 (angular constraints: locks and PD servos).
+    M = s.body_iinv_world
+    for j in range(m.joint_parent.shape[0]):
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        qa = s.body_rot[a]
+        qb = s.body_rot[b]
+        rax, ray, raz = _qrot(qa[0], qa[1], qa[2], qa[3], m.joint_anchor_parent[j, 0],
+                              m.joint_anchor_parent[j, 1], m.joint_anchor_parent[j, 2])
+        rbx, rby, rbz = _qrot(qb[0], qb[1], qb[2], qb[3], m.joint_anchor_child[j, 0],
+                              m.joint_anchor_child[j, 1], m.joint_anchor_child[j, 2])
+        s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2] = rax, ray, raz
+        s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2] = rbx, rby, rbz
+        k00 = k01 = k02 = k11 = k12 = k22 = 0.0
+        l00 = l01 = l02 = l11 = l12 = l22 = 0.0
+        ims = m.body_inv_mass[a] + m.body_inv_mass[b]
+        k00 = k11 = k22 = ims
+        for side in range(2):
+            bb = a if side == 0 else b
+            rx, ry, rz = (rax, ray, raz) if side == 0 else (rbx, rby, rbz)
+            # -[r]x I^-1 [r]x, written out: for S = [r]x, (S I S^T) since S^T = -S.
+            i00, i01, i02 = M[bb, 0, 0], M[bb, 0, 1], M[bb, 0, 2]
+            i11, i12, i22 = M[bb, 1, 1], M[bb, 1, 2], M[bb, 2, 2]
+            l00 += i00
+            l01 += i01
+            l02 += i02
+            l11 += i11
+            l12 += i12
+            l22 += i22
+            # S = [[0,-rz,ry],[rz,0,-rx],[-ry,rx,0]]; T = S I (row-wise), K += T S^T
+            t00 = -rz * i01 + ry * i02
+            t01 = -rz * i11 + ry * i12
+            t02 = -rz * i12 + ry * i22
+            t10 = rz * i00 - rx * i02
+            t11 = rz * i01 - rx * i12
+            t12 = rz * i02 - rx * i22
+            t20 = -ry * i00 + rx * i01
+            t21 = -ry * i01 + rx * i11
+            t22 = -ry * i02 + rx * i12
+            # (T S^T)[r][c] = sum_k T[r][k] S[c][k]
+            k00 += -t01 * rz + t02 * ry
+            k01 += t00 * rz - t02 * rx
+            k02 += -t00 * ry + t01 * rx
+            k11 += t10 * rz - t12 * rx
+            k12 += -t10 * ry + t11 * rx
+            k22 += -t20 * ry + t21 * rx
+        _inv3_sym_into(k00, k01, k02, k11, k12, k22, s.joint_kinv, j)
+        _inv3_sym_into(l00, l01, l02, l11, l12, l22, s.joint_ang_kinv, j)
+
+    # Ground contacts: each feature (capsule end sphere, box corner) against the terrain.
+    x0 = m.params[P_TERRAIN_X0]
+    y0 = m.params[P_TERRAIN_Y0]
+    cell = m.params[P_TERRAIN_CELL]
+    margin = m.params[P_MARGIN]
+    for f in range(m.feat_body.shape[0]):
+        b = m.feat_body[f]
+        px, py, pz = _world_point(m, s, b, m.feat_local[f, 0], m.feat_local[f, 1], m.feat_local[f, 2])
+        hz, nx, ny, nz = terrain_sample(m.terrain_height, x0, y0, cell, px, py)
+        rad = m.feat_radius[f]
+        sep = (pz - hz) * nz - rad
+        # speculative distance: what the body can travel towards the ground this substep
+        vx, vy, vz = s.body_linvel[b, 0], s.body_linvel[b, 1], s.body_linvel[b, 2]
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+        wx, wy, wz = s.body_angvel[b, 0], s.body_angvel[b, 1], s.body_angvel[b, 2]
+        speed += math.sqrt(wx * wx + wy * wy + wz * wz) * m.body_bound_radius[b]
+        if sep > margin + 2.0 * h * speed:
+            s.feat_active[f] = 0
+            s.feat_imp[f, 0] = 0.0
+            s.feat_imp[f, 1] = 0.0
+            s.feat_imp[f, 2] = 0.0
+            s.feat_imp[f, 3] = 0.0
+            continue
+        s.feat_active[f] = 1
+        # contact point on the body surface, anchored relative to the COM
+        cx, cy, cz = px - rad * nx, py - rad * ny, pz - rad * nz
+        s.feat_point[f, 0], s.feat_point[f, 1], s.feat_point[f, 2] = cx, cy, cz
+        rx, ry, rz = cx - s.body_pos[b, 0], cy - s.body_pos[b, 1], cz - s.body_pos[b, 2]
+        s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2] = rx, ry, rz
+        s.feat_normal[f, 0], s.feat_normal[f, 1], s.feat_normal[f, 2] = nx, ny, nz
+        s.feat_sep[f] = sep
+        t1x, t1y, t1z, t2x, t2y, t2z = _tangents(nx, ny, nz)
+        s.feat_t1[f, 0], s.feat_t1[f, 1], s.feat_t1[f, 2] = t1x, t1y, t1z
+        s.feat_t2[f, 0], s.feat_t2[f, 1], s.feat_t2[f, 2] = t2x, t2y, t2z
+        wn = _inv_mass_dir(m, s, b, rx, ry, rz, nx, ny, nz)
+        w1 = _inv_mass_dir(m, s, b, rx, ry, rz, t1x, t1y, t1z)
+        w2 = _inv_mass_dir(m, s, b, rx, ry, rz, t2x, t2y, t2z)
+        ix, iy, iz = _mat3_vec(s.body_iinv_world, b, nx, ny, nz)
+        ws = nx * ix + ny * iy + nz * iz
+        s.feat_mass[f, 0] = 1.0 / wn if wn > 0.0 else 0.0
+        s.feat_mass[f, 1] = 1.0 / w1 if w1 > 0.0 else 0.0
+        s.feat_mass[f, 2] = 1.0 / w2 if w2 > 0.0 else 0.0
+        s.feat_mass[f, 3] = 1.0 / ws if ws > 0.0 else 0.0
+
+    # Contacts between bodies of different characters: capsule against capsule.
+    for k in range(m.pair_a.shape[0]):
+        a = m.pair_a[k]
+        b = m.pair_b[k]
+        p1x, p1y, p1z = _world_point(m, s, a, m.body_seg_a[a, 0], m.body_seg_a[a, 1], m.body_seg_a[a, 2])
+        q1x, q1y, q1z = _world_point(m, s, a, m.body_seg_b[a, 0], m.body_seg_b[a, 1], m.body_seg_b[a, 2])
+        p2x, p2y, p2z = _world_point(m, s, b, m.body_seg_a[b, 0], m.body_seg_a[b, 1], m.body_seg_a[b, 2])
+        q2x, q2y, q2z = _world_point(m, s, b, m.body_seg_b[b, 0], m.body_seg_b[b, 1], m.body_seg_b[b, 2])
+        sa, tb = _closest_segments(p1x, p1y, p1z, q1x, q1y, q1z, p2x, p2y, p2z, q2x, q2y, q2z)
+        cax = p1x + sa * (q1x - p1x)
+        cay = p1y + sa * (q1y - p1y)
+        caz = p1z + sa * (q1z - p1z)
+        cbx = p2x + tb * (q2x - p2x)
+        cby = p2y + tb * (q2y - p2y)
+        cbz = p2z + tb * (q2z - p2z)
+        dx, dy, dz = cbx - cax, cby - cay, cbz - caz
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        ra_, rb_ = m.body_seg_radius[a], m.body_seg_radius[b]
+        sep = dist - ra_ - rb_
+        vax, vay, vaz = s.body_linvel[a, 0], s.body_linvel[a, 1], s.body_linvel[a, 2]
+        vbx, vby, vbz = s.body_linvel[b, 0], s.body_linvel[b, 1], s.body_linvel[b, 2]
+        speed = math.sqrt((vbx - vax) ** 2 + (vby - vay) ** 2 + (vbz - vaz) ** 2)
+        wa = math.sqrt(s.body_angvel[a, 0] ** 2 + s.body_angvel[a, 1] ** 2 + s.body_angvel[a, 2] ** 2)
+        wb = math.sqrt(s.body_angvel[b, 0] ** 2 + s.body_angvel[b, 1] ** 2 + s.body_angvel[b, 2] ** 2)
+        speed += wa * m.body_bound_radius[a] + wb * m.body_bound_radius[b]
+        if sep > margin + 2.0 * h * speed:
+            s.pair_active[k] = 0
+            s.pair_imp[k, 0] = 0.0
+            s.pair_imp[k, 1] = 0.0
+            s.pair_imp[k, 2] = 0.0
+            continue
+        if dist > 1e-9:
+            nx, ny, nz = dx / dist, dy / dist, dz / dist
+        else:
+            # coincident axes: push along the line between the centres (or up)
+            ex = s.body_pos[b, 0] - s.body_pos[a, 0]
+            ey = s.body_pos[b, 1] - s.body_pos[a, 1]
+            ez = s.body_pos[b, 2] - s.body_pos[a, 2]
+            el = math.sqrt(ex * ex + ey * ey + ez * ez)
+            if el > 1e-9:
+                nx, ny, nz = ex / el, ey / el, ez / el
+            else:
+                nx, ny, nz = 0.0, 0.0, 1.0
+        s.pair_active[k] = 1
+        # contact point halfway between the two surfaces
+        px = 0.5 * (cax + ra_ * nx + cbx - rb_ * nx)
+        py = 0.5 * (cay + ra_ * ny + cby - rb_ * ny)
+        pz = 0.5 * (caz + ra_ * nz + cbz - rb_ * nz)
+        s.pair_point[k, 0], s.pair_point[k, 1], s.pair_point[k, 2] = px, py, pz
+        rax, ray, raz = px - s.body_pos[a, 0], py - s.body_pos[a, 1], pz - s.body_pos[a, 2]
+        rbx, rby, rbz = px - s.body_pos[b, 0], py - s.body_pos[b, 1], pz - s.body_pos[b, 2]
+        s.pair_ra[k, 0], s.pair_ra[k, 1], s.pair_ra[k, 2] = rax, ray, raz
+        s.pair_rb[k, 0], s.pair_rb[k, 1], s.pair_rb[k, 2] = rbx, rby, rbz
+        s.pair_normal[k, 0], s.pair_normal[k, 1], s.pair_normal[k, 2] = nx, ny, nz
+        s.pair_sep[k] = sep
+        t1x, t1y, t1z, t2x, t2y, t2z = _tangents(nx, ny, nz)
+        s.pair_t1[k, 0], s.pair_t1[k, 1], s.pair_t1[k, 2] = t1x, t1y, t1z
+        s.pair_t2[k, 0], s.pair_t2[k, 1], s.pair_t2[k, 2] = t2x, t2y, t2z
+        wn = (_inv_mass_dir(m, s, a, rax, ray, raz, nx, ny, nz)
+              + _inv_mass_dir(m, s, b, rbx, rby, rbz, nx, ny, nz))
+        w1 = (_inv_mass_dir(m, s, a, rax, ray, raz, t1x, t1y, t1z)
+              + _inv_mass_dir(m, s, b, rbx, rby, rbz, t1x, t1y, t1z))
+        w2 = (_inv_mass_dir(m, s, a, rax, ray, raz, t2x, t2y, t2z)
+              + _inv_mass_dir(m, s, b, rbx, rby, rbz, t2x, t2y, t2z))
+        s.pair_mass[k, 0] = 1.0 / wn if wn > 0.0 else 0.0
+        s.pair_mass[k, 1] = 1.0 / w1 if w1 > 0.0 else 0.0
+        s.pair_mass[k, 2] = 1.0 / w2 if w2 > 0.0 else 0.0
+        # the contact point in both body frames: the current separation is tracked from them
+        la = s.pair_local
+        qa = s.body_rot[a]
+        qb = s.body_rot[b]
+        lax, lay, laz = _qrot(qa[0], -qa[1], -qa[2], -qa[3], rax, ray, raz)
+        lbx, lby, lbz = _qrot(qb[0], -qb[1], -qb[2], -qb[3], rbx, rby, rbz)
+        la[k, 0], la[k, 1], la[k, 2] = lax, lay, laz
+        la[k, 3], la[k, 4], la[k, 5] = lbx, lby, lbz
+
+
+# ---------------------------------------------------------------------------------------
+# 2. velocities
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _integrate_velocities(m, s, h):
+    gx, gy, gz = m.params[P_GRAVITY_X], m.params[P_GRAVITY_Y], m.params[P_GRAVITY_Z]
+    for b in range(s.body_pos.shape[0]):
+        im = m.body_inv_mass[b]
+        if im == 0.0:
+            continue
+        # Linear: gravity and user force, then the proportional velocity controller of
+        # Wilke & Semwal eq. 2, F = K_f m (v_target - v), integrated implicitly:
+        # v' = (v + h (g + F_ext/m) + h K_f v_t) / (1 + h K_f), stable for any K_f.
+        kf = s.body_track_gain[b]
+        for c in range(3):
+            g = gx if c == 0 else (gy if c == 1 else gz)
+            v = s.body_linvel[b, c] + h * (g + im * s.body_force[b, c])
+            s.body_linvel[b, c] = (v + h * kf * s.body_track_vel[b, c]) / (1.0 + h * kf)
+        # Angular: external torque, then the gyroscopic term w x I w integrated
+        # implicitly with one Newton step in the body frame (Catto, GDC 2015): explicit
+        # integration of it makes long thin bodies spin up and gain energy.
+        dx, dy, dz = _mat3_vec(s.body_iinv_world, b, s.body_torque[b, 0], s.body_torque[b, 1],
+                               s.body_torque[b, 2])
+        wx = s.body_angvel[b, 0] + h * dx
+        wy = s.body_angvel[b, 1] + h * dy
+        wz = s.body_angvel[b, 2] + h * dz
+        q = s.body_rot[b]
+        bx, by, bz = _qrot(q[0], -q[1], -q[2], -q[3], wx, wy, wz)
+        I0, I1, I2 = m.body_inertia[b, 0], m.body_inertia[b, 1], m.body_inertia[b, 2]
+        Lx, Ly, Lz = I0 * bx, I1 * by, I2 * bz
+        fx, fy, fz = _cross(bx, by, bz, Lx, Ly, Lz)
+        fx *= h
+        fy *= h
+        fz *= h
+        # J = I + h ([w]x I - [I w]x)
+        j00 = I0
+        j01 = h * (-bz * I1 + Lz)
+        j02 = h * (by * I2 - Ly)
+        j10 = h * (bz * I0 - Lz)
+        j11 = I1
+        j12 = h * (-bx * I2 + Lx)
+        j20 = h * (-by * I0 + Ly)
+        j21 = h * (bx * I1 - Lx)
+        j22 = I2
+        c00 = j11 * j22 - j12 * j21
+        c01 = j02 * j21 - j01 * j22
+        c02 = j01 * j12 - j02 * j11
+        det = j00 * c00 + j10 * c01 + j20 * c02
+        if abs(det) > 1e-300:
+            inv = 1.0 / det
+            c10 = j12 * j20 - j10 * j22
+            c11 = j00 * j22 - j02 * j20
+            c12 = j02 * j10 - j00 * j12
+            c20 = j10 * j21 - j11 * j20
+            c21 = j01 * j20 - j00 * j21
+            c22 = j00 * j11 - j01 * j10
+            bx -= inv * (c00 * fx + c01 * fy + c02 * fz)
+            by -= inv * (c10 * fx + c11 * fy + c12 * fz)
+            bz -= inv * (c20 * fx + c21 * fy + c22 * fz)
+        wx, wy, wz = _qrot(q[0], q[1], q[2], q[3], bx, by, bz)
+        s.body_angvel[b, 0] = wx
+        s.body_angvel[b, 1] = wy
+        s.body_angvel[b, 2] = wz
+
+
+# ---------------------------------------------------------------------------------------
+# 3. warm start
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _warm_start(m, s):
+    for j in range(m.joint_parent.shape[0]):
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        px, py, pz = s.joint_imp[j, 0], s.joint_imp[j, 1], s.joint_imp[j, 2]
+        _apply(m, s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2], px, py, pz, -1.0)
+        _apply(m, s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2], px, py, pz, 1.0)
+        lx = s.joint_lock_imp[j, 0] + s.joint_pd_imp[j, 0]
+        ly = s.joint_lock_imp[j, 1] + s.joint_pd_imp[j, 1]
+        lz = s.joint_lock_imp[j, 2] + s.joint_pd_imp[j, 2]
+        _apply_ang(s, a, lx, ly, lz, -1.0)
+        _apply_ang(s, b, lx, ly, lz, 1.0)
+    for f in range(m.feat_body.shape[0]):
+        if s.feat_active[f] == 0:
+            continue
+        b = m.feat_body[f]
+        i0, i1, i2 = s.feat_imp[f, 0], s.feat_imp[f, 1], s.feat_imp[f, 2]
+        px = i0 * s.feat_normal[f, 0] + i1 * s.feat_t1[f, 0] + i2 * s.feat_t2[f, 0]
+        py = i0 * s.feat_normal[f, 1] + i1 * s.feat_t1[f, 1] + i2 * s.feat_t2[f, 1]
+        pz = i0 * s.feat_normal[f, 2] + i1 * s.feat_t1[f, 2] + i2 * s.feat_t2[f, 2]
+        _apply(m, s, b, s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2], px, py, pz, 1.0)
+        i3 = s.feat_imp[f, 3]
+        _apply_ang(s, b, i3 * s.feat_normal[f, 0], i3 * s.feat_normal[f, 1], i3 * s.feat_normal[f, 2], 1.0)
+    for k in range(m.pair_a.shape[0]):
+        if s.pair_active[k] == 0:
+            continue
+        a = m.pair_a[k]
+        b = m.pair_b[k]
+        i0, i1, i2 = s.pair_imp[k, 0], s.pair_imp[k, 1], s.pair_imp[k, 2]
+        px = i0 * s.pair_normal[k, 0] + i1 * s.pair_t1[k, 0] + i2 * s.pair_t2[k, 0]
+        py = i0 * s.pair_normal[k, 1] + i1 * s.pair_t1[k, 1] + i2 * s.pair_t2[k, 1]
+        pz = i0 * s.pair_normal[k, 2] + i1 * s.pair_t1[k, 2] + i2 * s.pair_t2[k, 2]
+        _apply(m, s, a, s.pair_ra[k, 0], s.pair_ra[k, 1], s.pair_ra[k, 2], px, py, pz, -1.0)
+        _apply(m, s, b, s.pair_rb[k, 0], s.pair_rb[k, 1], s.pair_rb[k, 2], px, py, pz, 1.0)
+
+
+# ---------------------------------------------------------------------------------------
+# 4./6. solve and relax
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _solve_joints(m, s, h, use_bias):
+    jbias, jmass, jimp = 0.0, 1.0, 0.0
+    if use_bias:
+        # joint softness: hz <= 0 asks for the stiffest stable spring, a quarter of the
+        # substep rate (Box2D v3's rule); it only pushes drift out, the relax pass is rigid
+        jhz = m.params[P_JOINT_HZ]
+        jhz = 0.25 / h if jhz <= 0.0 else min(jhz, 0.25 / h)
+        jbias, jmass, jimp = _soft(jhz, m.params[P_JOINT_ZETA], h)
+    for j in range(m.joint_parent.shape[0]):
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        rax, ray, raz = s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2]
+        rbx, rby, rbz = s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2]
+        # -- ball and socket: the two anchors coincide --------------------------------
+        vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
+        vbx, vby, vbz = _point_vel(s, b, rbx, rby, rbz)
+        cdx, cdy, cdz = vbx - vax, vby - vay, vbz - vaz
+        bx = by = bz = 0.0
+        if use_bias:
+            pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
+                                         m.joint_anchor_parent[j, 2])
+            pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
+                                         m.joint_anchor_child[j, 2])
+            bx, by, bz = jbias * (pbx - pax), jbias * (pby - pay), jbias * (pbz - paz)
+        ex, ey, ez = _mat3_vec(s.joint_kinv, j, cdx + bx, cdy + by, cdz + bz)
+        px = -jmass * ex - jimp * s.joint_imp[j, 0]
+        py = -jmass * ey - jimp * s.joint_imp[j, 1]
+        pz = -jmass * ez - jimp * s.joint_imp[j, 2]
+        s.joint_imp[j, 0] += px
+        s.joint_imp[j, 1] += py
+        s.joint_imp[j, 2] += pz
+        _apply(m, s, a, rax, ray, raz, px, py, pz, -1.0)
+        _apply(m, s, b, rbx, rby, rbz, px, py, pz, 1.0)
+
+        # -- angular: a locked joint holds its rest relative rotation (rigid, soft like
+        #    the ball joint); otherwise the PD servo (Zordan et al. 2005 section 4):
+        #    tau = I (kp (theta_d - theta) - kv theta_dot) with kp = w^2, kv = 2 z w,
+        #    I the effective inertia of the joint (I_parent^-1 + I_child^-1)^-1, which
+        #    is the paper's outboard inertia when the parent is much heavier. Integrated
+        #    implicitly as a soft angular constraint, so any gain is stable.
+        locked = m.joint_locked[j] != 0
+        pd_hz = s.joint_pd_hz[j]
+        if not locked and pd_hz <= 0.0:
+            continue
+        qa = s.body_rot[a]
+        qb = s.body_rot[b]
+        if locked:
+            tw, tx, ty, tz = m.joint_rest_rot[j, 0], m.joint_rest_rot[j, 1], m.joint_rest_rot[j, 2], \
+                m.joint_rest_rot[j, 3]
+            bias_rate, mass_scale, imp_scale = jbias, jmass, jimp
+            acc = s.joint_lock_imp
+            twx = twy = twz = 0.0
+        else:
+            tw, tx, ty, tz = s.joint_target_rot[j, 0], s.joint_target_rot[j, 1], s.joint_target_rot[j, 2], \
+                s.joint_target_rot[j, 3]
+            bias_rate, mass_scale, imp_scale = _soft(pd_hz, s.joint_pd_zeta[j], h)
+            acc = s.joint_pd_imp
+            # target relative angular velocity, given in the parent frame
+            twx, twy, twz = _qrot(qa[0], qa[1], qa[2], qa[3], s.joint_target_angvel[j, 0],
+                                  s.joint_target_angvel[j, 1], s.joint_target_angvel[j, 2])
+        # error: rotation taking the target child orientation qa*t to the current qb
+        gw, gx, gy, gz = _qmul(qa[0], qa[1], qa[2], qa[3], tw, tx, ty, tz)
+        dw, dx, dy, dz = _qmul(qb[0], qb[1], qb[2], qb[3], gw, -gx, -gy, -gz)
+        cx, cy, cz = _qrotvec(dw, dx, dy, dz)
+        wrx = s.body_angvel[b, 0] - s.body_angvel[a, 0] - twx
+        wry = s.body_angvel[b, 1] - s.body_angvel[a, 1] - twy
+        wrz = s.body_angvel[b, 2] - s.body_angvel[a, 2] - twz
+        ex, ey, ez = _mat3_vec(s.joint_ang_kinv, j, wrx + bias_rate * cx, wry + bias_rate * cy,
+                               wrz + bias_rate * cz)
+        lx = -mass_scale * ex - imp_scale * acc[j, 0]
+        ly = -mass_scale * ey - imp_scale * acc[j, 1]
+        lz = -mass_scale * ez - imp_scale * acc[j, 2]
+        if not locked:
+            # torque limit: |tau| <= max_torque
+            lim = s.joint_pd_max_torque[j] * h
+            if lim > 0.0:
+                nx_, ny_, nz_ = acc[j, 0] + lx, acc[j, 1] + ly, acc[j, 2] + lz
+                nrm = math.sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_)
+                if nrm > lim:
+                    sc = lim / nrm
+                    nx_ *= sc
+                    ny_ *= sc
+                    nz_ *= sc
+                lx, ly, lz = nx_ - acc[j, 0], ny_ - acc[j, 1], nz_ - acc[j, 2]
+        acc[j, 0] += lx
+        acc[j, 1] += ly
+        acc[j, 2] += lz
+        _apply_ang(s, a, lx, ly, lz, -1.0)
+        _apply_ang(s, b, lx, ly, lz, 1.0)
+
+
+@njit(cache=True)
+def _contact_normal_impulse(mass_n, vn, sep, acc, h, use_bias, hz, zeta, max_push):
+    """Accumulated-impulse update of one contact normal (Box2D v3 b2SolveContact)."""
+    if sep > 0.0:
+        # speculative: the gap may close by at most sep this substep
+        bias, ms, isc = sep / h, 1.0, 0.0
+    elif use_bias:
+        # a contact spring stiffer than a quarter of the substep rate is as good as rigid
+        br, ms, isc = _soft(min(hz, 0.25 / h), zeta, h)
+        bias = max(br * sep, -max_push)
+    else:
+        bias, ms, isc = 0.0, 1.0, 0.0
+    imp = -mass_n * ms * (vn + bias) - isc * acc
+    new = max(acc + imp, 0.0)
+    return new, new - acc
+
+
+@njit(cache=True)
+def _solve_contacts(m, s, h, use_bias):
+    max_push = m.params[P_MAX_PUSH]
+    for f in range(m.feat_body.shape[0]):
+        if s.feat_active[f] == 0:
+            continue
+        b = m.feat_body[f]
+        foot = m.body_contact_kind[b] == KIND_FOOT
+        if foot:
+            hz, zeta, mu, spin_mu = (m.params[P_FOOT_HZ], m.params[P_FOOT_ZETA], m.params[P_FOOT_MU],
+                                     m.params[P_FOOT_SPIN_MU])
+        else:
+            hz, zeta, mu, spin_mu = (m.params[P_GROUND_HZ], m.params[P_GROUND_ZETA], m.params[P_GROUND_MU],
+                                     m.params[P_GROUND_SPIN_MU])
+        rx, ry, rz = s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2]
+        nx, ny, nz = s.feat_normal[f, 0], s.feat_normal[f, 1], s.feat_normal[f, 2]
+        # current separation: the one at prepare plus how far the anchor moved along n
+        px, py, pz = _world_point(m, s, b, m.feat_local[f, 0], m.feat_local[f, 1], m.feat_local[f, 2])
+        rad = m.feat_radius[f]
+        sep = s.feat_sep[f] + ((px - rad * nx - s.feat_point[f, 0]) * nx + (py - rad * ny - s.feat_point[f, 1]) * ny
+                               + (pz - rad * nz - s.feat_point[f, 2]) * nz)
+        vx, vy, vz = _point_vel(s, b, rx, ry, rz)
+        vn = vx * nx + vy * ny + vz * nz
+        new, dn = _contact_normal_impulse(s.feat_mass[f, 0], vn, sep, s.feat_imp[f, 0], h, use_bias, hz, zeta,
+                                          max_push)
+        s.feat_imp[f, 0] = new
+        _apply(m, s, b, rx, ry, rz, dn * nx, dn * ny, dn * nz, 1.0)
+        # Coulomb friction, the two tangents clamped together to the cone mu * lambda_n
+        vx, vy, vz = _point_vel(s, b, rx, ry, rz)
+        t1x, t1y, t1z = s.feat_t1[f, 0], s.feat_t1[f, 1], s.feat_t1[f, 2]
+        t2x, t2y, t2z = s.feat_t2[f, 0], s.feat_t2[f, 1], s.feat_t2[f, 2]
+        v1 = vx * t1x + vy * t1y + vz * t1z
+        v2 = vx * t2x + vy * t2y + vz * t2z
+        o1, o2 = s.feat_imp[f, 1], s.feat_imp[f, 2]
+        n1 = o1 - s.feat_mass[f, 1] * v1
+        n2 = o2 - s.feat_mass[f, 2] * v2
+        lim = mu * new
+        nrm = math.sqrt(n1 * n1 + n2 * n2)
+        if nrm > lim:
+            sc = lim / nrm if nrm > 0.0 else 0.0
+            n1 *= sc
+            n2 *= sc
+        s.feat_imp[f, 1] = n1
+        s.feat_imp[f, 2] = n2
+        d1, d2 = n1 - o1, n2 - o2
+        _apply(m, s, b, rx, ry, rz, d1 * t1x + d2 * t2x, d1 * t1y + d2 * t2y, d1 * t1z + d2 * t2z, 1.0)
+        # rotational friction about the normal (the paper's foot handler): the torque
+        # is bounded by spin_mu * contact radius * normal force
+        if spin_mu > 0.0:
+            wn = s.body_angvel[b, 0] * nx + s.body_angvel[b, 1] * ny + s.body_angvel[b, 2] * nz
+            o3 = s.feat_imp[f, 3]
+            n3 = o3 - s.feat_mass[f, 3] * wn
+            lim3 = spin_mu * m.feat_spin_radius[f] * new
+            n3 = min(max(n3, -lim3), lim3)
+            s.feat_imp[f, 3] = n3
+            d3 = n3 - o3
+            _apply_ang(s, b, d3 * nx, d3 * ny, d3 * nz, 1.0)
+
+    hz, zeta, mu = m.params[P_PAIR_HZ], m.params[P_PAIR_ZETA], m.params[P_PAIR_MU]
+    for k in range(m.pair_a.shape[0]):
+        if s.pair_active[k] == 0:
+            continue
+        a = m.pair_a[k]
+        b = m.pair_b[k]
+        rax, ray, raz = s.pair_ra[k, 0], s.pair_ra[k, 1], s.pair_ra[k, 2]
+        rbx, rby, rbz = s.pair_rb[k, 0], s.pair_rb[k, 1], s.pair_rb[k, 2]
+        nx, ny, nz = s.pair_normal[k, 0], s.pair_normal[k, 1], s.pair_normal[k, 2]
+        la = s.pair_local
+        pax, pay, paz = _world_point(m, s, a, la[k, 0], la[k, 1], la[k, 2])
+        pbx, pby, pbz = _world_point(m, s, b, la[k, 3], la[k, 4], la[k, 5])
+        # both anchors sat on one point at prepare: the gap grows by their split along n
+        sep = s.pair_sep[k] + (pbx - pax) * nx + (pby - pay) * ny + (pbz - paz) * nz
+        vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
+        vbx, vby, vbz = _point_vel(s, b, rbx, rby, rbz)
+        vn = (vbx - vax) * nx + (vby - vay) * ny + (vbz - vaz) * nz
+        new, dn = _contact_normal_impulse(s.pair_mass[k, 0], vn, sep, s.pair_imp[k, 0], h, use_bias, hz, zeta,
+                                          max_push)
+        s.pair_imp[k, 0] = new
+        _apply(m, s, a, rax, ray, raz, dn * nx, dn * ny, dn * nz, -1.0)
+        _apply(m, s, b, rbx, rby, rbz, dn * nx, dn * ny, dn * nz, 1.0)
+        vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
+        vbx, vby, vbz = _point_vel(s, b, rbx, rby, rbz)
+        t1x, t1y, t1z = s.pair_t1[k, 0], s.pair_t1[k, 1], s.pair_t1[k, 2]
+        t2x, t2y, t2z = s.pair_t2[k, 0], s.pair_t2[k, 1], s.pair_t2[k, 2]
+        rvx, rvy, rvz = vbx - vax, vby - vay, vbz - vaz
+        v1 = rvx * t1x + rvy * t1y + rvz * t1z
+        v2 = rvx * t2x + rvy * t2y + rvz * t2z
+        o1, o2 = s.pair_imp[k, 1], s.pair_imp[k, 2]
+        n1 = o1 - s.pair_mass[k, 1] * v1
+        n2 = o2 - s.pair_mass[k, 2] * v2
+        lim = mu * new
+        nrm = math.sqrt(n1 * n1 + n2 * n2)
+        if nrm > lim:
+            sc = lim / nrm if nrm > 0.0 else 0.0
+            n1 *= sc
+            n2 *= sc
+        s.pair_imp[k, 1] = n1
+        s.pair_imp[k, 2] = n2
+        d1, d2 = n1 - o1, n2 - o2
+        qx, qy, qz = d1 * t1x + d2 * t2x, d1 * t1y + d2 * t2y, d1 * t1z + d2 * t2z
+        _apply(m, s, a, rax, ray, raz, qx, qy, qz, -1.0)
+        _apply(m, s, b, rbx, rby, rbz, qx, qy, qz, 1.0)
+
+
+# ---------------------------------------------------------------------------------------
+# 5. positions
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _integrate_positions(m, s, h):
+    for b in range(s.body_pos.shape[0]):
+        if m.body_inv_mass[b] == 0.0:
+            continue
+        s.body_pos[b, 0] += h * s.body_linvel[b, 0]
+        s.body_pos[b, 1] += h * s.body_linvel[b, 1]
+        s.body_pos[b, 2] += h * s.body_linvel[b, 2]
+        wx, wy, wz = 0.5 * h * s.body_angvel[b, 0], 0.5 * h * s.body_angvel[b, 1], 0.5 * h * s.body_angvel[b, 2]
+        qw, qx, qy, qz = s.body_rot[b, 0], s.body_rot[b, 1], s.body_rot[b, 2], s.body_rot[b, 3]
+        dw, dx, dy, dz = _qmul(0.0, wx, wy, wz, qw, qx, qy, qz)
+        qw += dw
+        qx += dx
+        qy += dy
+        qz += dz
+        inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        s.body_rot[b, 0] = qw * inv
+        s.body_rot[b, 1] = qx * inv
+        s.body_rot[b, 2] = qy * inv
+        s.body_rot[b, 3] = qz * inv
+
+
+# ---------------------------------------------------------------------------------------
+# The step
+# ---------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def step_kernel(m, s, dt, nsub, niter, nsteps):
+    """Advance ``nsteps`` steps of ``dt`` seconds, each in ``nsub`` substeps with
+    ``niter`` solve and ``niter`` relax iterations. Returns 0, or 1 if the state became
+    non-finite (the caller raises; the kernel never hides a NaN)."""
+    h = dt / nsub
+    for _ in range(nsteps):
+        for _sub in range(nsub):
+            _prepare(m, s, h)
+            _integrate_velocities(m, s, h)
+            _warm_start(m, s)
+            for _it in range(niter):
+                _solve_joints(m, s, h, True)
+                _solve_contacts(m, s, h, True)
+            _integrate_positions(m, s, h)
+            for _it in range(niter):
+                _solve_joints(m, s, h, False)
+                _solve_contacts(m, s, h, False)
+        s.clock[0] += dt
+        s.clock[1] += 1.0
+    for b in range(s.body_pos.shape[0]):
+        for c in range(3):
+            if not (math.isfinite(s.body_pos[b, c]) and math.isfinite(s.body_linvel[b, c])
+                    and math.isfinite(s.body_angvel[b, c])):
+                return 1
+    return 0
+
+
+@njit(cache=True)
+def joint_separation_kernel(m, s, out):
+    """Distance (m) between the two anchors of each ball joint, into out (njoint,)."""
+    for j in range(m.joint_parent.shape[0]):
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
+                                     m.joint_anchor_parent[j, 2])
+        pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
+                                     m.joint_anchor_child[j, 2])
+        out[j] = math.sqrt((pbx - pax) ** 2 + (pby - pay) ** 2 + (pbz - paz) ** 2)
