@@ -665,6 +665,7 @@ def bvh_text(clip: BvhClip, precision: int | None = 6) -> str:
         out.extend(" ".join(repr(float(v)) for v in row) for row in motion)
     else:
         fmt = " ".join([f"%.{precision}f"] * motion.shape[1])
+        motion = np.round(motion, precision) + 0.0  # + 0.0 turns -0.0 into 0.0: no "-0.000000"
         out.extend(fmt % tuple(row) for row in motion)
     return "\n".join(out) + "\n"
 
