@@ -77,6 +77,7 @@ from engine.mathx.spline import (
     hermite5_basis_deriv2,
     hermite5_basis_deriv2_into,
     hermite5_basis_deriv_into,
+    hermite5_basis_into,
     hermite5_deriv,
     hermite5_deriv2,
     hermite5_deriv2_into,

@@ -528,9 +528,14 @@ def _between_scalars(ux, uy, uz, vx, vy, vz):
     ux, uy, uz = ux / nu, uy / nu, uz / nu
     vx, vy, vz = vx / nv, vy / nv, vz / nv
     d = ux * vx + uy * vy + uz * vz
-    cx = uy * vz - uz * vy
-    cy = uz * vx - ux * vz
-    cz = ux * vy - uy * vx
+    # u x v computed as u x (u + v): the same vector, but when u and v nearly oppose,
+    # h = u + v is exact (Sterbenz) and nearly perpendicular to u, so the cross product
+    # keeps full relative precision and stays perpendicular to u; u x v directly would
+    # cancel to ~1e-16 absolute and tilt the axis by 1e-16 / |u x v|.
+    hx, hy, hz = ux + vx, uy + vy, uz + vz
+    cx = uy * hz - uz * hy
+    cy = uz * hx - ux * hz
+    cz = ux * hy - uy * hx
     sin_angle = math.sqrt(cx * cx + cy * cy + cz * cz)
     if d < 0.0 and sin_angle < _OPPOSITE_SIN:
         # Opposite: any axis perpendicular to u will do; pick one deterministically.
@@ -546,7 +551,6 @@ def _between_scalars(ux, uy, uz, vx, vy, vz):
     # (1 + cos a, sin a * axis) = 2 cos(a/2) (cos(a/2), sin(a/2) axis): normalizing gives
     # the half-angle quaternion without any trigonometry. 1 + cos a is computed as
     # |u + v|^2 / 2, which keeps its relative precision when u and v nearly oppose.
-    hx, hy, hz = ux + vx, uy + vy, uz + vz
     w = 0.5 * (hx * hx + hy * hy + hz * hz)
     n = math.sqrt(w * w + cx * cx + cy * cy + cz * cz)
     return w / n, cx / n, cy / n, cz / n

@@ -348,9 +348,23 @@ def fit_hermite5_into(points, params, p0, p1, out):
     nearest the segment, and a fully determined fit ignores the prior.
 
     Plan-time code (the IK fits rest poses once); allocates a few 4x4 scratch arrays.
+    Raises ValueError on non-finite input or mismatched shapes (callers name the
+    creature and bodies first; this is the last guard, never a NaN result).
     """
     m = points.shape[0]
     d = points.shape[1]
+    if m != params.shape[0] or p0.shape[0] != d or p1.shape[0] != d or out.shape[1] != d:
+        raise ValueError("fit_hermite5: points (m, d), params (m,), p0, p1 (d,) and "
+                         "out (4, d) disagree in shape")
+    for j in range(m):
+        if not math.isfinite(params[j]):
+            raise ValueError("fit_hermite5: non-finite spline parameter")
+        for k in range(d):
+            if not math.isfinite(points[j, k]):
+                raise ValueError("fit_hermite5: non-finite sample point")
+    for k in range(d):
+        if not (math.isfinite(p0[k]) and math.isfinite(p1[k])):
+            raise ValueError("fit_hermite5: non-finite end point")
     normal = np.zeros((4, 4))
     rhs = np.zeros((4, d))
     basis = np.empty(6)
