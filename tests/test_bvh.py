@@ -36,6 +36,7 @@ from engine.io.bvh_creature import (
     MIN_HALF_EXTENT,
     THICKNESS_FRACTION,
     CapsTableError,
+    bvh_body_poses,
     creature_def_from_bvh,
     creature_from_bvh,
     joint_caps,
@@ -727,3 +728,47 @@ def test_creature_def_writes_and_loads(clips, tmp_path):
     creature = load_creature(out)
     assert creature.nleg == 2 and creature.nbody == 31
     assert "cmu-asf-units" in creature.description
+
+
+def _qconj(q):
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def test_body_poses_move_rigidly_with_their_joints(clips):
+    clip = clips["cmu_131_03_start_hop_stop_3dsmax.bvh"]
+    scale, _ = auto_scale(clip)
+    frames = np.arange(0, clip.nframe, 97)
+    body_pos, body_rot = bvh_body_poses(clip, frames=frames)
+    cdef = creature_def_from_bvh(clip)
+    centre = np.array([b.pos for b in cdef.bodies])
+    box_rot = np.array([b.rot for b in cdef.bodies])
+    joint = np.array([b.joint for b in cdef.bodies])
+    joint_pos, _ = clip.forward_kinematics(frames)
+    joint_pos = to_menagerie_axes(joint_pos, scale)
+    # Each body's joint point, carried by the body, lands on the captured joint...
+    own = quat_rotate(_qconj(box_rot), joint - centre)
+    np.testing.assert_allclose(body_pos + quat_rotate(body_rot, own), joint_pos, atol=1e-9)
+    # ...and on the same point carried by its parent body: the bodies stay connected.
+    child = np.arange(1, clip.njoint)
+    parent = clip.joint_parent[child]
+    in_parent = quat_rotate(_qconj(box_rot[parent]), joint[child] - centre[parent])
+    np.testing.assert_allclose(body_pos[:, parent] + quat_rotate(body_rot[:, parent], in_parent),
+                               joint_pos[:, child], atol=1e-9)
+
+
+def test_body_poses_at_the_offset_pose_are_the_rest_boxes():
+    clip = parse_bvh_text(TINY.replace("1 2 3 4 5 6 7 8 9", "0 50 0 0 0 0 0 0 0"))
+    body_pos, body_rot = bvh_body_poses(clip, scale=0.01, frames=[1])
+    cdef = creature_def_from_bvh(clip, scale=0.01)
+    rest = np.array([b.pos for b in cdef.bodies])
+    lift = body_pos[0, 0, 2] - rest[0, 2]
+    np.testing.assert_allclose(body_pos[0], rest + [0, 0, lift], atol=1e-12)
+    np.testing.assert_allclose(body_rot[0], [b.rot for b in cdef.bodies], atol=1e-12)
+
+
+def test_a_jaw_takes_the_mouth_from_the_head():
+    text = TINY.replace("    End Site\n    {\n      OFFSET 0 5 0\n    }",
+                        "    JOINT Head\n    {\n      OFFSET 0 5 0\n      CHANNELS 0\n"
+                        "      JOINT Jaw\n      {\n        OFFSET 0 0 2\n        CHANNELS 0\n      }\n    }")
+    caps = dict(zip(parse_bvh_text(text).joint_names, joint_caps(parse_bvh_text(text))))
+    assert caps["Head"] == ["spine", "head"] and caps["Jaw"] == ["mouth"]

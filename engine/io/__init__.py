@@ -21,6 +21,7 @@ from engine.io.bvh import (
 from engine.io.bvh_creature import (
     DEFAULT_CAPS_TABLE,
     CapsTableError,
+    bvh_body_poses,
     creature_def_from_bvh,
     creature_from_bvh,
     joint_caps,
@@ -29,7 +30,7 @@ from engine.io.bvh_creature import (
 
 __all__ = [
     "AXIS_MAP", "CHANNEL_NAMES", "DEFAULT_CAPS_TABLE", "UNIT_SCALES", "BvhClip", "BvhWarning",
-    "CapsTableError", "auto_scale", "bvh_text", "creature_def_from_bvh", "creature_from_bvh",
+    "CapsTableError", "auto_scale", "bvh_body_poses", "bvh_text", "creature_def_from_bvh", "creature_from_bvh",
     "joint_caps", "load_bvh", "load_caps_table", "parse_bvh_text", "quat_to_menagerie_axes",
     "save_bvh", "to_menagerie_axes",
 ]

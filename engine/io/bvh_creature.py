@@ -36,8 +36,9 @@ How each piece is made (all in Menagerie axes and metres, see ``engine.io.bvh``)
   2. along each limb only the foot and grasper nearest the spine keep that capability;
      ones further out become ``detail`` (3dsMax-friendly CMU files have both LeftWrist
      and lhand; each leg and arm thus gets exactly one foot or grasper).
-  The head gets ``spine, head, mouth``: BVH has no jaw, and the animation system needs a
-  mouth to aim eating and biting at, so the head stands in for it.
+  The head gets ``spine, head, mouth``: mocap skeletons rarely have a jaw, and the
+  animation system needs a mouth to aim eating and biting at, so the head stands in for
+  it (unless some joint, e.g. a ``jaw``, matched ``mouth`` itself).
 
 Errors: unreadable files raise ``BvhError``; a caps table that cannot be used raises
 ``CapsTableError``; a result the builder rejects (e.g. a custom caps table that makes the
@@ -205,6 +206,12 @@ def joint_caps(clip: BvhClip, caps_table: dict | None = None) -> list[list[str]]
         caps[0] = ["spine"] + [c for c in caps[0] if c != "spine"]
         is_spine[0] = True
 
+    # The head stands in for a mouth only when no joint is a mouth of its own (a jaw).
+    if any("mouth" in c and "head" not in c for c in caps):
+        for c in caps:
+            if "head" in c and "mouth" in c:
+                c.remove("mouth")
+
     # 2. One foot and one grasper per limb chain: the one nearest the spine.
     for cap in ("foot", "grasper"):
         above = np.zeros(n, bool)  # a non-spine ancestor on the same limb has ``cap``
@@ -333,6 +340,28 @@ def _box_min_z(centre: np.ndarray, rot: np.ndarray, half: np.ndarray) -> float:
 # -- the creature ------------------------------------------------------------------------
 
 
+def _resolve_scale(clip: BvhClip, scale: float | None) -> tuple[float, str]:
+    """The scale to use and a note for the description."""
+    if scale is None:
+        scale, unit = auto_scale(clip)
+        return scale, f"unit {unit} (x{scale:.6g}, auto)"
+    scale = float(scale)
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise DataError(f"scale must be a positive number, got {scale!r}", path=clip.path, field="scale")
+    return scale, f"x{scale:.6g}"
+
+
+def _rest_boxes(clip: BvhClip, scale: float):
+    """Rest joint positions and body boxes in Menagerie axes and metres, before grounding."""
+    pos_file, end_file = clip.rest_positions()
+    joint_pos = to_menagerie_axes(pos_file, scale)
+    end_pos = to_menagerie_axes(end_file, scale)
+    size = float(np.max(np.ptp(np.concatenate([joint_pos, end_pos[~np.isnan(end_pos[:, 0])]]), axis=0)))
+    eps = max(1e-9, 1e-6 * size)
+    centre, rot, half = _bone_boxes(clip.joint_parent, joint_pos, end_pos, eps)
+    return joint_pos, centre, rot, half
+
+
 def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
                           scale: float | None = None, name: str | None = None) -> CreatureDef:
     """A ``CreatureDef`` for a BVH skeleton (a ``BvhClip`` or a file path).
@@ -347,22 +376,9 @@ def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table:
     chain fails here with ``CreatureError`` naming the BVH file and the joint's line.
     """
     clip = clip_or_path if isinstance(clip_or_path, BvhClip) else load_bvh(clip_or_path)
-    if scale is None:
-        scale, unit = auto_scale(clip)
-        scale_note = f"unit {unit} (x{scale:.6g}, auto)"
-    else:
-        scale = float(scale)
-        if not (np.isfinite(scale) and scale > 0.0):
-            raise DataError(f"scale must be a positive number, got {scale!r}", path=clip.path, field="scale")
-        scale_note = f"x{scale:.6g}"
+    scale, scale_note = _resolve_scale(clip, scale)
     caps = joint_caps(clip, caps_table)
-
-    pos_file, end_file = clip.rest_positions()
-    joint_pos = to_menagerie_axes(pos_file, scale)
-    end_pos = to_menagerie_axes(end_file, scale)
-    size = float(np.max(np.ptp(np.concatenate([joint_pos, end_pos[~np.isnan(end_pos[:, 0])]]), axis=0)))
-    eps = max(1e-9, 1e-6 * size)
-    centre, rot, half = _bone_boxes(clip.joint_parent, joint_pos, end_pos, eps)
+    joint_pos, centre, rot, half = _rest_boxes(clip, scale)
 
     # Stand on the ground, root above the origin.
     shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rot, half)])
@@ -395,3 +411,26 @@ def creature_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dic
                       scale: float | None = None, name: str | None = None) -> Creature:
     """The built ``Creature`` for a BVH skeleton; arguments as ``creature_def_from_bvh``."""
     return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name))
+
+
+def bvh_body_poses(clip: BvhClip, scale: float | None = None, frames=None) -> tuple[np.ndarray, np.ndarray]:
+    """The captured motion as poses of the bodies ``creature_def_from_bvh(clip, scale=scale)``
+    makes: world box centres (nf, nj, 3) and rotations (nf, nj, 4) per frame, in Menagerie
+    axes and metres, in BVH joint order (body ``j`` is ``clip.joint_names[j]``).
+
+    A body moves rigidly with its joint: at the OFFSET pose the joint frames are the world
+    axes, so body = joint world transform * (box relative to the joint at rest). Positions
+    keep the capture's own floor and placement (the file origin maps to the Menagerie
+    origin), not the rest pose's grounding shift. Computed for all frames at once (numpy);
+    bake once, then index per frame.
+    """
+    from engine.io.bvh import quat_mul, quat_rotate, quat_to_menagerie_axes
+
+    scale, _ = _resolve_scale(clip, scale)
+    joint_pos, centre, rot, _ = _rest_boxes(clip, scale)
+    world_pos, world_rot = clip.forward_kinematics(frames)
+    world_pos = to_menagerie_axes(world_pos, scale)
+    world_rot = quat_to_menagerie_axes(world_rot)
+    body_pos = world_pos + quat_rotate(world_rot, np.broadcast_to(centre - joint_pos, world_pos.shape))
+    body_rot = quat_mul(world_rot, np.broadcast_to(rot, world_rot.shape))
+    return body_pos, body_rot
