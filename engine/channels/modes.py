@@ -69,9 +69,9 @@ POSITION_MODES = {"absolute": K.POS_ABSOLUTE, "rest": K.POS_REST, "secondary": K
 ROTATION_MODES = {"absolute": K.ROT_ABSOLUTE, "rest": K.ROT_REST, "lookat": K.ROT_LOOKAT}
 SCALE_MODES = ("none", "creature_size", "limb_length")
 
-#: Default soft joint limits of lookat, radians: full aim up to 90 degrees off the body's
+#: Default soft joint limits of lookat, degrees: full aim up to 90 degrees off the body's
 #: forward axis (the target in the front halfspace), none when it is straight behind.
-LOOKAT_LIMITS = (0.5 * math.pi, math.pi)
+LOOKAT_LIMITS = (90.0, 180.0)
 #: Sagittal axis of a body on the sagittal plane, as a fraction of the creature's size.
 SAGITTAL_MIN = 0.01
 #: Shortest ground axis (m): a body whose box already rests on the ground.
@@ -117,8 +117,9 @@ class PositionSpec:
 
 @dataclass(frozen=True)
 class RotationSpec:
-    """How a channel's rotation curve is interpreted. ``limits`` (radians, lookat only):
-    the soft joint limits, 0 <= limits[0] < limits[1] <= pi."""
+    """How a channel's rotation curve is interpreted. ``limits`` (degrees, lookat only):
+    the soft joint limits, 0 <= limits[0] < limits[1] <= 180 (degrees, the unit animators
+    write; the slots hold radians)."""
 
     mode: str = "rest"
     limits: tuple[float, float] = LOOKAT_LIMITS
@@ -128,8 +129,8 @@ class RotationSpec:
             raise DataError(f"unknown rotation mode {self.mode!r} (known: {', '.join(ROTATION_MODES)})",
                             field="mode")
         lo, hi = self.limits
-        if not (0.0 <= lo < hi <= math.pi):
-            raise DataError(f"lookat limits must satisfy 0 <= lo < hi <= pi, got {list(self.limits)}",
+        if not (0.0 <= lo < hi <= 180.0):
+            raise DataError(f"lookat limits must satisfy 0 <= lo < hi <= 180 degrees, got {list(self.limits)}",
                             field="limits")
 
     @property
@@ -222,7 +223,7 @@ def build_slots(creature, slots: list[Slot]) -> SlotConstants:
         slot_rest_rot=np.ascontiguousarray(creature.body_rest_rot[body], float).reshape(n, 4),
         slot_scale=np.ones((n, 3)), slot_ground_axis=np.zeros(n), slot_sagittal_axis=np.zeros(n),
         slot_mirror_sign=np.ones(n), slot_forward=np.zeros((n, 3)),
-        slot_lookat_limits=np.tile(np.array(LOOKAT_LIMITS), (n, 1)).reshape(n, 2),
+        slot_lookat_limits=np.tile(np.radians(LOOKAT_LIMITS), (n, 1)).reshape(n, 2),
         slot_target=np.array([s.target for s in slots], np.int32).reshape(n),
     )
     from engine.mathx.quat import quat_rotate
@@ -243,10 +244,10 @@ def build_slots(creature, slots: list[Slot]) -> SlotConstants:
             out["slot_ground_axis"][i] = -math.copysign(max(abs(h), MIN_GROUND_AXIS), h)
             side = int(creature.body_side[b])
             y = float(creature.body_rest_pos[b, 1])
-            out["slot_sagittal_axis"][i] = -y if side != 0 else SAGITTAL_MIN * big * sign
+            out["slot_sagittal_axis"][i] = -y if side != 0 else -SAGITTAL_MIN * big * sign
         if s.rotation is not None:
             out["slot_rot_mode"][i] = ROTATION_MODES[s.rotation.mode]
-            out["slot_lookat_limits"][i] = s.rotation.limits
+            out["slot_lookat_limits"][i] = np.radians(s.rotation.limits)
             out["slot_forward"][i] = quat_rotate(np.ascontiguousarray(creature.body_rest_rot[b]),
                                                  np.array([1.0, 0.0, 0.0]))
         needs = (s.position is not None and s.position.needs_target) or (
