@@ -1,0 +1,941 @@
+"""Numba kernels of the two-phase Particle IK solver (Hecker et al. 2008, section 4.3).
+
+Everything here takes plain arrays and scalars. Small vectors and quaternions travel as
+tuples (``(x, y, z)``, ``(w, x, y, z)``) so the per-solve path never touches the heap.
+The plan arrives as two flat blobs (``plan_i`` int32, ``plan_f`` float64) and is unpacked
+into the ``PlanArrays`` NamedTuple of views inside the kernel: a Python call then costs
+about a microsecond of dispatch instead of one type check per array.
+
+The quaternion and spline helpers are private tuple-valued twins of what engine.mathx
+offers on arrays; the solver keeps its own so its inner loops stay in registers.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+from numba import njit
+
+# -- the plan layout ------------------------------------------------------------------
+# (name, width): width 1 fields are 1-D, 3 and 4 are (n, 3) / (n, 4). The order here is
+# the order of the blob and of ``PlanArrays``; ``_unpack`` below follows it by hand and a
+# test checks the two agree.
+INT_FIELDS = (
+    "b_parent",            # (nbody,) body parents (copy of the creature's)
+    "sp_kind",             # (nsp,) spine-phase particle kind: 0 root, 1 spine, 2 goal, 3 anchor
+    "sp_body",             # (nsp,) body the particle belongs to
+    "sc_a", "sc_b",        # (nsc,) spine-phase constraint endpoints, leaves inward
+    "sc_kind",             # (nsc,) 0 spine, 1 simplified limb, 2 delegated goal, 3 anchor
+    "ch_particle",         # (nch,) spine particles, outward per side, sides concatenated
+    "ch_prev",             # (nch,) rootward neighbour particle (0 = the root particle)
+    "ch_prev_k",           # (nch,) chain slot of that neighbour, -1 for the root
+    "ch_next",             # (nch,) outward neighbour particle, -1 at the end of the side
+    "ch_con",              # (nch,) constraint to the rootward neighbour
+    "ch_seg",              # (nch,) spine spline segment that ends at this particle
+    "bp_c1", "bp_c2",      # (nbp,) neighbouring spine constraints watched for buckling
+    "seg_a", "seg_b",      # (nseg,) particles at the two ends of each spine spline
+    "seg_body_adr", "seg_body_num",  # (nseg,) interior spine bodies of each spline
+    "segbody_body",        # (nsb,) interior spine bodies
+    "dg_body",             # (ndg,) bodies whose goals are delegated to their spine parent
+    "dg_goal",             # (ndg,) their goal slot
+    "dg_particle",         # (ndg,) their goal particle in the spine phase
+    "dg_spine_particle",   # (ndg,) the spine particle they delegate to
+    "rg_body",             # (nrg,) bodies placed rigidly on their parent (delegated ones)
+    "lp_body",             # (nlp,) limb-phase particle: the body whose joint it sits at
+    "lp_parent",           # (nlp,) parent particle, -1 at a limb root (fixed to the spine)
+    "lp_con",              # (nlp,) constraint to the parent particle, -1 at a limb root
+    "lp_attach",           # (nlp,) spine body the limb hangs off
+    "lp_mode",             # (nlp,) orientation rebuild: 0 one axis, 1 two axes, 2 rigid on parent
+    "lp_c1", "lp_c2",      # (nlp,) child particles giving the axes (-1 if unused)
+    "lp_goal",             # (nlp,) goal slot of the particle's body, -1 if none
+    "lc_a", "lc_b",        # (nlc,) limb constraints, leaves inward
+    "ag_pivot",            # (nag,) aim groups: pivot particle
+    "ag_moved_adr", "ag_moved_num", "ag_goal_adr", "ag_goal_num",
+    "ag_moved",            # particles an aim group moves
+    "ag_goal",             # goal slots an aim group aims at
+    "goal_body",           # (ngoal,) bodies with goals in this plan
+    "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
+    "goal_lp",             # (ngoal,) limb-phase particle the goal pins, -1 if none
+    "goal_limb_root",      # (ngoal,) limb root of a limb goal (for the aim estimate), else -1
+    "scratch_layout",      # (8,) offsets into the scratch blob (see ``_scratch_views``)
+)
+FLOAT_FIELDS = (
+    ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
+    ("b_joint_offset", 3), ("b_local_rot", 4), ("b_local_pos", 3), ("b_local_joint", 3),
+    ("sp_rest", 3),        # root-relative rest position of every spine-phase particle
+    ("sc_len", 1),         # rest length, m
+    ("sc_lo", 1), ("sc_hi", 1),      # free range as a fraction of the rest length
+    ("sc_plo", 1), ("sc_phi", 1),    # projection range at reconstruction
+    ("sc_inva", 1), ("sc_invb", 1),  # inverse mass of each endpoint
+    ("bp_sign1", 1),       # -1 when c1 runs the other way (the other side of the root)
+    ("bp_rest_angle", 1),  # angle between the two constraints in the rest pose, rad
+    ("ch_rest_tangent", 3),  # root-relative rest tangent at each chain particle
+    ("seg_v0", 3), ("seg_a0", 3),    # spline tangent/acceleration at the start, start body's frame
+    ("seg_v1", 3), ("seg_a1", 3),    # ... at the end, end body's frame
+    ("seg_rest_chord", 1),
+    ("seg_rest_twist", 4),           # transported frame at t=1 relative to the end body, at rest
+    ("segbody_t", 1), ("segbody_off", 3), ("segbody_rot", 4),
+    ("dg_chord", 3),       # delegated joint relative to the spine particle, spine body frame
+    ("lp_local", 3),       # rest joint in the attach body's rest frame
+    ("lp_init_local", 3),  # the same with the bend hint for straight rest chains
+    ("lp_rot_local", 4),   # rest rotation relative to the attach body
+    ("lc_len", 1), ("lc_lo", 1), ("lc_hi", 1), ("lc_plo", 1), ("lc_phi", 1),
+    ("lc_inva", 1), ("lc_invb", 1),
+    ("params", 1),         # see P_* below
+)
+FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
+NINT = len(INT_FIELDS)
+PlanArrays = namedtuple("PlanArrays", INT_FIELDS + FLOAT_NAMES)
+
+# Indices into ``params``.
+P_SPINE_OUTER, P_SPINE_INNER, P_LIMB_OUTER, P_LIMB_INNER = 0, 1, 2, 3
+P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
+P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
+NPARAM = 12
+
+# Scratch blob slots: sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state.
+NSCRATCH = 8
+
+EPS = 1e-12
+
+
+# -- small vector and quaternion algebra on tuples -------------------------------------
+
+
+@njit(cache=True, inline="always")
+def v3(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@njit(cache=True, inline="always")
+def q4(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2], a[i, 3])
+
+
+@njit(cache=True, inline="always")
+def set3(a, i, v):
+    a[i, 0] = v[0]
+    a[i, 1] = v[1]
+    a[i, 2] = v[2]
+
+
+@njit(cache=True, inline="always")
+def set4(a, i, q):
+    a[i, 0] = q[0]
+    a[i, 1] = q[1]
+    a[i, 2] = q[2]
+    a[i, 3] = q[3]
+
+
+@njit(cache=True, inline="always")
+def vadd(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(cache=True, inline="always")
+def vsub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(cache=True, inline="always")
+def vscale(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@njit(cache=True, inline="always")
+def vdot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True, inline="always")
+def vcross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True, inline="always")
+def vnorm(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@njit(cache=True, inline="always")
+def vlerp(a, b, t):
+    return (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]))
+
+
+@njit(cache=True, inline="always")
+def qmul(a, b):
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+@njit(cache=True, inline="always")
+def qconj(q):
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+@njit(cache=True, inline="always")
+def qrot(q, v):
+    # v + 2w (u x v) + 2 u x (u x v), u the vector part
+    u = (q[1], q[2], q[3])
+    t = vscale(vcross(u, v), 2.0)
+    return vadd(vadd(v, vscale(t, q[0])), vcross(u, t))
+
+
+@njit(cache=True)
+def qnormalize(q):
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if n < EPS:
+        return (1.0, 0.0, 0.0, 0.0)
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+@njit(cache=True)
+def qaxis_angle(axis, angle):
+    n = vnorm(axis)
+    if n < EPS:
+        return (1.0, 0.0, 0.0, 0.0)
+    s = math.sin(0.5 * angle) / n
+    return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
+
+
+@njit(cache=True)
+def qbetween(u, v):
+    """Minimal-twist (shortest-arc) rotation taking direction u to direction v. For
+    opposite directions the axis is the one perpendicular to u closest to the x axis,
+    else the y axis, so the answer is defined everywhere (the paper's footnote 11: a
+    path-independent solver must put its singularity somewhere)."""
+    nu = vnorm(u)
+    nv = vnorm(v)
+    if nu < EPS or nv < EPS:
+        return (1.0, 0.0, 0.0, 0.0)
+    a = vscale(u, 1.0 / nu)
+    b = vscale(v, 1.0 / nv)
+    d = vdot(a, b)
+    if d < -1.0 + 1e-12:
+        axis = vcross(a, (1.0, 0.0, 0.0))
+        if vnorm(axis) < 1e-6:
+            axis = vcross(a, (0.0, 1.0, 0.0))
+        n = vnorm(axis)
+        return (0.0, axis[0] / n, axis[1] / n, axis[2] / n)
+    c = vcross(a, b)
+    return qnormalize((1.0 + d, c[0], c[1], c[2]))
+
+
+@njit(cache=True)
+def qslerp(a, b, t):
+    d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    if d < 0.0:
+        b = (-b[0], -b[1], -b[2], -b[3])
+        d = -d
+    if d > 0.9995:
+        return qnormalize((a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]),
+                           a[2] + t * (b[2] - a[2]), a[3] + t * (b[3] - a[3])))
+    th = math.acos(d)
+    s = math.sin(th)
+    wa = math.sin((1.0 - t) * th) / s
+    wb = math.sin(t * th) / s
+    return (wa * a[0] + wb * b[0], wa * a[1] + wb * b[1], wa * a[2] + wb * b[2], wa * a[3] + wb * b[3])
+
+
+@njit(cache=True)
+def qlog(q):
+    """Rotation vector (axis * angle) of a unit quaternion, angle in [0, pi]."""
+    if q[0] < 0.0:
+        q = (-q[0], -q[1], -q[2], -q[3])
+    s = math.sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if s < EPS:
+        return (0.0, 0.0, 0.0)
+    ang = 2.0 * math.atan2(s, q[0])
+    return (q[1] * ang / s, q[2] * ang / s, q[3] * ang / s)
+
+
+@njit(cache=True)
+def twist_angle(q, axis):
+    """Angle of the twist part of q about the unit ``axis`` (swing-twist split), (-pi, pi]."""
+    p = q[1] * axis[0] + q[2] * axis[1] + q[3] * axis[2]
+    ang = 2.0 * math.atan2(p, q[0])
+    if ang > math.pi:
+        ang -= 2.0 * math.pi
+    elif ang <= -math.pi:
+        ang += 2.0 * math.pi
+    return ang
+
+
+@njit(cache=True)
+def smoothstep(x):
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x * x * (3.0 - 2.0 * x)
+
+
+# -- quintic Hermite spline (section 4.3.2, "Spine Splines") ---------------------------
+
+
+@njit(cache=True)
+def hermite5_basis(t):
+    """Quintic Hermite basis on [0, 1] for (p0, v0, a0, p1, v1, a1)."""
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    t5 = t4 * t
+    return (1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5,
+            t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5,
+            0.5 * t2 - 1.5 * t3 + 1.5 * t4 - 0.5 * t5,
+            10.0 * t3 - 15.0 * t4 + 6.0 * t5,
+            -4.0 * t3 + 7.0 * t4 - 3.0 * t5,
+            0.5 * t3 - t4 + 0.5 * t5)
+
+
+@njit(cache=True)
+def hermite5_dbasis(t):
+    """Derivatives of ``hermite5_basis`` with respect to t."""
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    return (-30.0 * t2 + 60.0 * t3 - 30.0 * t4,
+            1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4,
+            t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4,
+            30.0 * t2 - 60.0 * t3 + 30.0 * t4,
+            -12.0 * t2 + 28.0 * t3 - 15.0 * t4,
+            1.5 * t2 - 4.0 * t3 + 2.5 * t4)
+
+
+@njit(cache=True)
+def hermite5_point(p0, v0, a0, p1, v1, a1, t):
+    h = hermite5_basis(t)
+    return (h[0] * p0[0] + h[1] * v0[0] + h[2] * a0[0] + h[3] * p1[0] + h[4] * v1[0] + h[5] * a1[0],
+            h[0] * p0[1] + h[1] * v0[1] + h[2] * a0[1] + h[3] * p1[1] + h[4] * v1[1] + h[5] * a1[1],
+            h[0] * p0[2] + h[1] * v0[2] + h[2] * a0[2] + h[3] * p1[2] + h[4] * v1[2] + h[5] * a1[2])
+
+
+@njit(cache=True)
+def hermite5_tangent(p0, v0, a0, p1, v1, a1, t):
+    h = hermite5_dbasis(t)
+    return (h[0] * p0[0] + h[1] * v0[0] + h[2] * a0[0] + h[3] * p1[0] + h[4] * v1[0] + h[5] * a1[0],
+            h[0] * p0[1] + h[1] * v0[1] + h[2] * a0[1] + h[3] * p1[1] + h[4] * v1[1] + h[5] * a1[1],
+            h[0] * p0[2] + h[1] * v0[2] + h[2] * a0[2] + h[3] * p1[2] + h[4] * v1[2] + h[5] * a1[2])
+
+
+@njit(cache=True)
+def transport_frame(p0, v0, a0, p1, v1, a1, frame, t_from, t_to, nsub):
+    """Carry ``frame`` along the spline from t_from to t_to by minimal-twist steps, so the
+    frame turns with the tangent and never spins about it (parallel transport)."""
+    tan = hermite5_tangent(p0, v0, a0, p1, v1, a1, t_from)
+    for s in range(1, nsub + 1):
+        t = t_from + (t_to - t_from) * s / nsub
+        nxt = hermite5_tangent(p0, v0, a0, p1, v1, a1, t)
+        if vnorm(tan) > EPS and vnorm(nxt) > EPS:
+            frame = qnormalize(qmul(qbetween(tan, nxt), frame))
+            tan = nxt
+    return frame
+
+
+# -- the soft length constraint (section 4.3.1) ----------------------------------------
+
+
+@njit(cache=True)
+def soft_response(e, slope, band, width):
+    """Correction for a relative length error ``e``, C1 and piecewise: ``slope * e``
+    inside the band (soft: only part of a small error is removed per sweep), a quadratic
+    blend over ``width`` to slope 1, then ``e`` minus a constant (full correction of any
+    further error). Odd in e."""
+    a = abs(e)
+    if a <= band:
+        c = slope * a
+    elif a <= band + width:
+        x = a - band
+        c = slope * a + (1.0 - slope) * x * x / (2.0 * width)
+    else:
+        c = a - (1.0 - slope) * (band + 0.5 * width)
+    return c if e >= 0.0 else -c
+
+
+@njit(cache=True)
+def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
+    """One nonlinear length correction (Jakobsen 2001): move both endpoints along the
+    constraint axis, in inverse proportion to their masses, by the soft response to how
+    far the length is outside [lo, hi] * length. ``inv`` scales each particle's inverse
+    mass (goal particles get 1 - goal weight)."""
+    wa = inva * inv[a]
+    wb = invb * inv[b]
+    wsum = wa + wb
+    if wsum <= 0.0:
+        return
+    d = (pos[b, 0] - pos[a, 0], pos[b, 1] - pos[a, 1], pos[b, 2] - pos[a, 2])
+    L = vnorm(d)
+    if length <= 0.0:
+        # A zero-length constraint (anchor): pull together by ``stiffness``.
+        k = stiffness / wsum
+        for j in range(3):
+            pos[a, j] += wa * k * d[j]
+            pos[b, j] -= wb * k * d[j]
+        return
+    if L < EPS:
+        return
+    target = min(max(L, lo * length), hi * length)
+    e = (L - target) / length
+    if e == 0.0:
+        return
+    corr = stiffness * soft_response(e, slope, band, width) * length / (L * wsum)
+    for j in range(3):
+        pos[a, j] += wa * corr * d[j]
+        pos[b, j] -= wb * corr * d[j]
+
+
+@njit(cache=True)
+def project_length(pos, parent, child, length, plo, phi):
+    """Projection of reconstruction: put ``child`` on the ray from ``parent`` at a length
+    within [plo, phi] * length (section 4.3.2, "Reconstruction")."""
+    d = vsub(v3(pos, child), v3(pos, parent))
+    L = vnorm(d)
+    if L < EPS:
+        return
+    Lc = min(max(L, plo * length), phi * length)
+    if Lc != L:
+        set3(pos, child, vadd(v3(pos, parent), vscale(d, Lc / L)))
+
+
+# -- plan unpacking -------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _i(pi, k):
+    o = pi[2 * k]
+    return pi[o:o + pi[2 * k + 1]]
+
+
+@njit(cache=True, inline="always")
+def _f(pi, pf, k):
+    h = 2 * (NINT + k)
+    o = pi[h]
+    return pf[o:o + pi[h + 1]]
+
+
+@njit(cache=True, inline="always")
+def _f3(pi, pf, k):
+    a = _f(pi, pf, k)
+    return a.reshape((a.shape[0] // 3, 3))
+
+
+@njit(cache=True, inline="always")
+def _f4(pi, pf, k):
+    a = _f(pi, pf, k)
+    return a.reshape((a.shape[0] // 4, 4))
+
+
+@njit(cache=True)
+def unpack(pi, pf):
+    """The plan blobs as a ``PlanArrays`` NamedTuple of views (no copies)."""
+    return PlanArrays(
+        _i(pi, 0), _i(pi, 1), _i(pi, 2), _i(pi, 3), _i(pi, 4), _i(pi, 5), _i(pi, 6), _i(pi, 7),
+        _i(pi, 8), _i(pi, 9), _i(pi, 10), _i(pi, 11), _i(pi, 12), _i(pi, 13), _i(pi, 14),
+        _i(pi, 15), _i(pi, 16), _i(pi, 17), _i(pi, 18), _i(pi, 19), _i(pi, 20), _i(pi, 21),
+        _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
+        _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
+        _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45),
+        # floats
+        _f4(pi, pf, 0), _f3(pi, pf, 1), _f3(pi, pf, 2), _f3(pi, pf, 3), _f4(pi, pf, 4),
+        _f3(pi, pf, 5), _f3(pi, pf, 6), _f3(pi, pf, 7),
+        _f(pi, pf, 8), _f(pi, pf, 9), _f(pi, pf, 10), _f(pi, pf, 11), _f(pi, pf, 12),
+        _f(pi, pf, 13), _f(pi, pf, 14), _f(pi, pf, 15), _f(pi, pf, 16),
+        _f3(pi, pf, 17),
+        _f3(pi, pf, 18), _f3(pi, pf, 19), _f3(pi, pf, 20), _f3(pi, pf, 21),
+        _f(pi, pf, 22), _f4(pi, pf, 23),
+        _f(pi, pf, 24), _f3(pi, pf, 25), _f4(pi, pf, 26),
+        _f3(pi, pf, 27),
+        _f3(pi, pf, 28), _f3(pi, pf, 29), _f4(pi, pf, 30),
+        _f(pi, pf, 31), _f(pi, pf, 32), _f(pi, pf, 33), _f(pi, pf, 34), _f(pi, pf, 35),
+        _f(pi, pf, 36), _f(pi, pf, 37),
+        _f(pi, pf, 38),
+    )
+
+
+@njit(cache=True)
+def _scratch_views(P, scratch):
+    lay = P.scratch_layout
+    nsp = P.sp_kind.shape[0]
+    nlp = P.lp_body.shape[0]
+    ngoal = P.goal_body.shape[0]
+    nch = P.ch_particle.shape[0]
+    sp_pos = scratch[lay[0]:lay[0] + 3 * nsp].reshape((nsp, 3))
+    sp_inv = scratch[lay[1]:lay[1] + nsp]
+    lp_pos = scratch[lay[2]:lay[2] + 3 * nlp].reshape((nlp, 3))
+    lp_rest = scratch[lay[3]:lay[3] + 3 * nlp].reshape((nlp, 3))
+    lp_inv = scratch[lay[4]:lay[4] + nlp]
+    goal_joint = scratch[lay[5]:lay[5] + 3 * ngoal].reshape((ngoal, 3))
+    ch_tan = scratch[lay[6]:lay[6] + 3 * nch].reshape((nch, 3))
+    state = scratch[lay[7]:lay[7] + 4]
+    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state
+
+
+# -- the solve ------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_rot_w, goal_joint):
+    """Section 4.3.1: 6-DOF goals become 3-DOF goals at the body's joint. The body's
+    rotation at the goal is the rotation goal where one is given (blended by its weight
+    into the estimate), else an estimate: the rest rotation aimed along its limb's chord
+    from the limb root to the goal (the same minimal-twist aim the limb phase starts from)."""
+    for gi in range(P.goal_body.shape[0]):
+        g = P.goal_body[gi]
+        rest_rot = qmul(root_rot, q4(P.b_rootrel_rot, g))
+        est = rest_rot
+        lr = P.goal_limb_root[gi]
+        if lr >= 0:
+            chord_rest = qrot(root_rot, vsub(v3(P.b_rootrel_joint, g), v3(P.b_rootrel_joint, lr)))
+            attach = vadd(root_pos, qrot(root_rot, v3(P.b_rootrel_joint, lr)))
+            chord_goal = vsub(v3(goal_pos, g), attach)
+            if vnorm(chord_rest) > 1e-9 and vnorm(chord_goal) > 1e-9:
+                est = qmul(qbetween(chord_rest, chord_goal), rest_rot)
+        wr = goal_rot_w[g]
+        if wr > 0.0:
+            est = qslerp(est, q4(goal_rot, g), min(wr, 1.0))
+        set3(goal_joint, gi, vsub(v3(goal_pos, g), qrot(est, v3(P.b_joint_offset, g))))
+
+
+@njit(cache=True)
+def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_joint, sp_pos, sp_inv, state):
+    """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
+    goals, spine constraints between branch points) leaves inward, 5 outer iterations,
+    watching for buckling and blending toward the rest pose when it happens."""
+    prm = P.params
+    slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
+    nsp = P.sp_kind.shape[0]
+    # Initialization: every particle at the root-relative rest pose, carried by the root.
+    for i in range(nsp):
+        set3(sp_pos, i, vadd(root_pos, qrot(root_rot, v3(P.sp_rest, i))))
+        k = P.sp_kind[i]
+        sp_inv[i] = 0.0 if (k == 0 or k == 3) else 1.0
+    # Goal particles start at their goals (the distal end of a simplified limb).
+    for gi in range(P.goal_body.shape[0]):
+        i = P.goal_sp[gi]
+        if i < 0:
+            continue
+        w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
+        sp_inv[i] = 1.0 - w
+    buckle = 0.0
+    nsc = P.sc_a.shape[0]
+    n_outer = int(prm[P_SPINE_OUTER])
+    n_inner = int(prm[P_SPINE_INNER])
+    anti = prm[P_ANTI_BUCKLING] > 0.0
+    for _outer in range(n_outer):
+        for _inner in range(n_inner):
+            for c in range(nsc):
+                kind = P.sc_kind[c]
+                if kind == 3:
+                    if buckle > 0.0:
+                        relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], 0.0, 1.0, 1.0,
+                                         P.sc_inva[c], P.sc_invb[c], buckle, slope, band, width)
+                    continue
+                relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], P.sc_len[c], P.sc_lo[c],
+                                 P.sc_hi[c], P.sc_inva[c], P.sc_invb[c], 1.0, slope, band, width)
+            # Goals with weight below 1 are pulled back toward their goal after each sweep.
+            for gi in range(P.goal_body.shape[0]):
+                i = P.goal_sp[gi]
+                if i >= 0:
+                    w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+                    if 0.0 < w < 1.0:
+                        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
+        if anti:
+            b = smoothstep((_buckle_metric(P, root_rot, sp_pos) - prm[P_BUCKLE_ON])
+                           / (prm[P_BUCKLE_FULL] - prm[P_BUCKLE_ON]))
+            buckle = max(buckle, b)
+    state[0] = buckle
+
+
+@njit(cache=True)
+def _buckle_metric(P, root_rot, sp_pos):
+    """How far the spine has folded: the largest increase, over the rest pose, of the
+    angle between neighbouring spine constraints (the first constraint of a side with no
+    neighbour is compared with its own rest direction carried by the root), rad."""
+    worst = 0.0
+    for k in range(P.bp_c2.shape[0]):
+        c2 = P.bp_c2[k]
+        d2 = vsub(v3(sp_pos, P.sc_b[c2]), v3(sp_pos, P.sc_a[c2]))
+        c1 = P.bp_c1[k]
+        if c1 >= 0:
+            d1 = vscale(vsub(v3(sp_pos, P.sc_b[c1]), v3(sp_pos, P.sc_a[c1])), P.bp_sign1[k])
+        else:
+            d1 = qrot(root_rot, vsub(v3(P.sp_rest, P.sc_b[c2]), v3(P.sp_rest, P.sc_a[c2])))
+        n1 = vnorm(d1)
+        n2 = vnorm(d2)
+        if n1 < EPS or n2 < EPS:
+            continue
+        c = min(max(vdot(d1, d2) / (n1 * n2), -1.0), 1.0)
+        worst = max(worst, math.acos(c) - P.bp_rest_angle[k])
+    return worst
+
+
+@njit(cache=True)
+def _root_influence(P, root_pos, root_rot, sp_pos):
+    """Footnote 8: the root's immediate spine children pull the root's rotation slightly
+    toward where the spine phase moved them (a fraction of the mean rotation)."""
+    kappa = P.params[P_ROOT_INFLUENCE]
+    if kappa <= 0.0:
+        return root_rot
+    acc = (0.0, 0.0, 0.0)
+    n = 0
+    for k in range(P.ch_particle.shape[0]):
+        if P.ch_prev_k[k] >= 0:
+            continue
+        i = P.ch_particle[k]
+        d_rest = qrot(root_rot, v3(P.sp_rest, i))
+        d_pose = vsub(v3(sp_pos, i), root_pos)
+        acc = vadd(acc, qlog(qbetween(d_rest, d_pose)))
+        n += 1
+    if n == 0:
+        return root_rot
+    rv = vscale(acc, kappa / n)
+    ang = vnorm(rv)
+    return qnormalize(qmul(qaxis_angle(rv, ang), root_rot))
+
+
+@njit(cache=True)
+def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
+                       out_pos, out_rot):
+    """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
+    allowed shrink/stretch, tangents by the three-point and natural-end formulas, minimal
+    twist from the rest tangent, delegated goals blended in, interior bodies by frame
+    transport along the quintic splines."""
+    set3(out_pos, 0, root_pos)
+    set4(out_rot, 0, root_rot)
+    set3(sp_pos, 0, root_pos)
+    nch = P.ch_particle.shape[0]
+    # Positions, outward (chain slots are ordered outward on each side).
+    for k in range(nch):
+        c = P.ch_con[k]
+        project_length(sp_pos, P.ch_prev[k], P.ch_particle[k], P.sc_len[c], P.sc_plo[c], P.sc_phi[c])
+    # Tangents and orientations of the particle bodies.
+    for k in range(nch):
+        i = P.ch_particle[k]
+        pprev = v3(sp_pos, P.ch_prev[k])
+        if P.ch_next[k] >= 0:
+            tan = vscale(vsub(v3(sp_pos, P.ch_next[k]), pprev), 0.5)
+        else:
+            if P.ch_prev_k[k] >= 0:
+                vprev = v3(ch_tan, P.ch_prev_k[k])
+            else:
+                vprev = qrot(root_rot, v3(P.seg_v0, P.ch_seg[k]))
+            tan = vsub(vscale(vsub(v3(sp_pos, i), pprev), 1.5), vscale(vprev, 0.5))
+        set3(ch_tan, k, tan)
+        s = P.sp_body[i]
+        rest_rot = qmul(root_rot, q4(P.b_rootrel_rot, s))
+        rot = qmul(qbetween(qrot(root_rot, v3(P.ch_rest_tangent, k)), tan), rest_rot)
+        # Delegated position goals: swing the body so the delegated joints point at
+        # where the spine phase put them (their goals, when reachable).
+        acc_r = (0.0, 0.0, 0.0)
+        acc_p = (0.0, 0.0, 0.0)
+        for d in range(P.dg_body.shape[0]):
+            if P.dg_spine_particle[d] != i:
+                continue
+            w = min(max(goal_pos_w[P.dg_body[d]], 0.0), 1.0)
+            if w <= 0.0:
+                continue
+            acc_r = vadd(acc_r, vscale(qrot(rot, v3(P.dg_chord, d)), w))
+            acc_p = vadd(acc_p, vscale(vsub(v3(sp_pos, P.dg_particle[d]), v3(sp_pos, i)), w))
+        if vnorm(acc_r) > EPS and vnorm(acc_p) > EPS:
+            rot = qmul(qbetween(acc_r, acc_p), rot)
+        # Delegated rotation goals: the spine body takes the rotation that puts the
+        # delegating body on its goal, blended by the goal's weight.
+        for d in range(P.dg_body.shape[0]):
+            if P.dg_spine_particle[d] != i:
+                continue
+            db = P.dg_body[d]
+            wr = min(max(goal_rot_w[db], 0.0), 1.0)
+            if wr > 0.0:
+                rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db))), wr)
+        set4(out_rot, s, rot)
+        set3(out_pos, s, vadd(v3(sp_pos, i), qrot(rot, v3(P.b_joint_offset, s))))
+    # Interior spine bodies, by frame transport along each posed spline.
+    nsub = int(P.params[P_SUBSTEPS])
+    for g in range(P.seg_a.shape[0]):
+        a = P.seg_a[g]
+        b = P.seg_b[g]
+        A = P.sp_body[a]
+        B = P.sp_body[b]
+        ra = q4(out_rot, A)
+        rb = q4(out_rot, B)
+        p0 = v3(sp_pos, a)
+        p1 = v3(sp_pos, b)
+        chord = vnorm(vsub(p1, p0))
+        scale = chord / P.seg_rest_chord[g] if P.seg_rest_chord[g] > EPS else 1.0
+        v0 = vscale(qrot(ra, v3(P.seg_v0, g)), scale)
+        a0 = vscale(qrot(ra, v3(P.seg_a0, g)), scale)
+        v1 = vscale(qrot(rb, v3(P.seg_v1, g)), scale)
+        a1 = vscale(qrot(rb, v3(P.seg_a1, g)), scale)
+        adr = P.seg_body_adr[g]
+        num = P.seg_body_num[g]
+        frame = ra
+        t_prev = 0.0
+        # First pass: transported frames at each interior body's parameter.
+        for j in range(adr, adr + num):
+            t = P.segbody_t[j]
+            frame = transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, t, nsub)
+            t_prev = t
+            body = P.segbody_body[j]
+            set4(out_rot, body, frame)
+            set3(out_pos, body, hermite5_point(p0, v0, a0, p1, v1, a1, t))
+        frame_end = transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, 1.0, nsub)
+        # The end body may be twisted about the spine relative to the transported frame
+        # by more (or less) than at rest: spread that twist linearly along the spline.
+        delta = qmul(qmul(qconj(frame_end), rb), qconj(q4(P.seg_rest_twist, g)))
+        axis_local = qrot(qconj(ra), hermite5_tangent(p0, v0, a0, p1, v1, a1, 0.0))
+        n_ax = vnorm(axis_local)
+        theta = 0.0
+        if n_ax > EPS:
+            axis_local = vscale(axis_local, 1.0 / n_ax)
+            theta = twist_angle(delta, axis_local)
+        for j in range(adr, adr + num):
+            body = P.segbody_body[j]
+            t = P.segbody_t[j]
+            fr = qmul(q4(out_rot, body), qaxis_angle(axis_local, theta * t))
+            rot = qnormalize(qmul(fr, q4(P.segbody_rot, j)))
+            joint = vadd(v3(out_pos, body), qrot(fr, v3(P.segbody_off, j)))
+            set4(out_rot, body, rot)
+            set3(out_pos, body, vadd(joint, qrot(rot, v3(P.b_joint_offset, body))))
+
+
+@njit(cache=True)
+def _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
+                out_pos, out_rot):
+    """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
+    recursively with weighted goal averages, branches), constraint iterations, then
+    positions by outward projection and orientations by minimal twist from the rest pose
+    (or from two constraint axes where cross-constraints fix the frame)."""
+    prm = P.params
+    slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
+    nlp = P.lp_body.shape[0]
+    # Rest pose of each limb carried rigidly by its posed spine attachment body.
+    for i in range(nlp):
+        s = P.lp_attach[i]
+        ps = v3(out_pos, s)
+        rs = q4(out_rot, s)
+        set3(lp_rest, i, vadd(ps, qrot(rs, v3(P.lp_local, i))))
+        set3(lp_pos, i, vadd(ps, qrot(rs, v3(P.lp_init_local, i))))
+        lp_inv[i] = 0.0 if P.lp_parent[i] < 0 else 1.0
+    # Aim preconditioner: rotate and scale each group about its pivot so the weighted
+    # mean of its goal particles lands on the weighted mean of their goals.
+    for g in range(P.ag_pivot.shape[0]):
+        piv = v3(lp_pos, P.ag_pivot[g])
+        cur = (0.0, 0.0, 0.0)
+        tgt = (0.0, 0.0, 0.0)
+        wsum = 0.0
+        for j in range(P.ag_goal_adr[g], P.ag_goal_adr[g] + P.ag_goal_num[g]):
+            gi = P.ag_goal[j]
+            w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+            if w <= 0.0:
+                continue
+            pc = v3(lp_pos, P.goal_lp[gi])
+            cur = vadd(cur, vscale(pc, w))
+            tgt = vadd(tgt, vscale(vlerp(pc, v3(goal_joint, gi), w), w))
+            wsum += w
+        if wsum <= 0.0:
+            continue
+        vr = vsub(vscale(cur, 1.0 / wsum), piv)
+        vg = vsub(vscale(tgt, 1.0 / wsum), piv)
+        nr = vnorm(vr)
+        ng = vnorm(vg)
+        if nr < 1e-9 or ng < 1e-9:
+            continue
+        rot = qbetween(vr, vg)
+        stretch = ng / nr - 1.0
+        ghat = vscale(vg, 1.0 / ng)
+        for j in range(P.ag_moved_adr[g], P.ag_moved_adr[g] + P.ag_moved_num[g]):
+            m = P.ag_moved[j]
+            y = qrot(rot, vsub(v3(lp_pos, m), piv))
+            y = vadd(y, vscale(ghat, stretch * vdot(y, ghat)))
+            set3(lp_pos, m, vadd(piv, y))
+    # Goal particles at their goals (weighted).
+    for gi in range(P.goal_body.shape[0]):
+        i = P.goal_lp[gi]
+        if i < 0 or P.lp_parent[i] < 0:
+            continue
+        w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+        set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+        lp_inv[i] = 1.0 - w
+    # Constraint iterations, leaves inward.
+    nlc = P.lc_a.shape[0]
+    n_iter = int(prm[P_LIMB_OUTER]) * int(prm[P_LIMB_INNER])
+    for _it in range(n_iter):
+        for c in range(nlc):
+            relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
+                             P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], 1.0, slope, band, width)
+        for gi in range(P.goal_body.shape[0]):
+            i = P.goal_lp[gi]
+            if i >= 0 and P.lp_parent[i] >= 0:
+                w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+                if 0.0 < w < 1.0:
+                    set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+    # Positions: outward projection to the allowed stretch (particles are parents first).
+    for i in range(nlp):
+        c = P.lp_con[i]
+        if c >= 0:
+            project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
+    # Orientations, parents first.
+    for i in range(nlp):
+        b = P.lp_body[i]
+        s = P.lp_attach[i]
+        rest_rot = qmul(q4(out_rot, s), q4(P.lp_rot_local, i))
+        mode = P.lp_mode[i]
+        if mode == 2:
+            rot = qmul(q4(out_rot, P.b_parent[b]), q4(P.b_local_rot, b))
+        else:
+            c1 = P.lp_c1[i]
+            e1r = vsub(v3(lp_rest, c1), v3(lp_rest, i))
+            e1p = vsub(v3(lp_pos, c1), v3(lp_pos, i))
+            swing = qbetween(e1r, e1p)
+            rot = qmul(swing, rest_rot)
+            if mode == 1:
+                # Cross-constraints fix the frame: turn about the first axis until the
+                # second axis lies in its posed plane.
+                c2 = P.lp_c2[i]
+                ax = e1p
+                nax = vnorm(ax)
+                if nax > EPS:
+                    ax = vscale(ax, 1.0 / nax)
+                    e2r = qrot(swing, vsub(v3(lp_rest, c2), v3(lp_rest, i)))
+                    e2p = vsub(v3(lp_pos, c2), v3(lp_pos, i))
+                    u = vsub(e2r, vscale(ax, vdot(e2r, ax)))
+                    v = vsub(e2p, vscale(ax, vdot(e2p, ax)))
+                    if vnorm(u) > 1e-9 and vnorm(v) > 1e-9:
+                        ang = math.atan2(vdot(ax, vcross(u, v)), vdot(u, v))
+                        rot = qmul(qaxis_angle(ax, ang), rot)
+        gi = P.lp_goal[i]
+        if gi >= 0:
+            wr = min(max(goal_rot_w[b], 0.0), 1.0)
+            if wr > 0.0:
+                rot = qslerp(rot, q4(goal_rot, b), wr)
+        rot = qnormalize(rot)
+        set4(out_rot, b, rot)
+        set3(out_pos, b, vadd(v3(lp_pos, i), qrot(rot, v3(P.b_joint_offset, b))))
+
+
+@njit(cache=True)
+def _place_rigid(P, out_pos, out_rot):
+    """Delegated bodies ride rigidly on their spine parent (the spine bent for them)."""
+    for k in range(P.rg_body.shape[0]):
+        b = P.rg_body[k]
+        p = P.b_parent[b]
+        rp = q4(out_rot, p)
+        set4(out_rot, b, qnormalize(qmul(rp, q4(P.b_local_rot, b))))
+        set3(out_pos, b, vadd(v3(out_pos, p), qrot(rp, v3(P.b_local_pos, b))))
+
+
+@njit(cache=True)
+def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot,
+              scratch):
+    """One whole solve: goals to joint targets, spine phase, root influence, spine
+    reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
+    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state = _scratch_views(P, scratch)
+    rr = qnormalize(root_rot)
+    _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_rot_w, goal_joint)
+    _spine_phase(P, root_pos, rr, goal_pos_w, goal_joint, sp_pos, sp_inv, state)
+    rr = _root_influence(P, root_pos, rr, sp_pos)
+    _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
+                       out_pos, out_rot)
+    _place_rigid(P, out_pos, out_rot)
+    _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
+                out_pos, out_rot)
+
+
+@njit(cache=True)
+def check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w):
+    """-1 when the inputs are usable; -2 for a bad root pose; else the first goal body
+    with a non-finite goal, a weight outside [0, 1] or a zero rotation goal. Checked in
+    the kernel before anything is written, so bad input never reaches the output."""
+    for j in range(3):
+        if not math.isfinite(root_pos[j]):
+            return -2
+    n = 0.0
+    for j in range(4):
+        if not math.isfinite(root_rot[j]):
+            return -2
+        n += root_rot[j] * root_rot[j]
+    if n < 1e-12:
+        return -2
+    for gi in range(P.goal_body.shape[0]):
+        g = P.goal_body[gi]
+        wp = goal_pos_w[g]
+        wr = goal_rot_w[g]
+        if not (0.0 <= wp <= 1.0) or not (0.0 <= wr <= 1.0):
+            return g
+        for j in range(3):
+            if wp > 0.0 and not math.isfinite(goal_pos[g, j]):
+                return g
+        if wr > 0.0:
+            qn = 0.0
+            for j in range(4):
+                if not math.isfinite(goal_rot[g, j]):
+                    return g
+                qn += goal_rot[g, j] * goal_rot[g, j]
+            if qn < 1e-12:
+                return g
+    return -1
+
+
+@njit(cache=True)
+def solve_packed(plan_i, plan_f, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
+                 out_pos, out_rot, scratch):
+    """One solve from the plan blobs; see ``engine.ik.solver.solve_ik``. Returns the
+    ``check_inputs`` code (-1 = solved)."""
+    P = unpack(plan_i, plan_f)
+    bad = check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w)
+    if bad != -1:
+        return bad
+    solve_one(P, (root_pos[0], root_pos[1], root_pos[2]),
+              (root_rot[0], root_rot[1], root_rot[2], root_rot[3]),
+              goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot, scratch)
+    return -1
+
+
+@njit(cache=True)
+def solve_packed_batch(plan_i, plan_f, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w,
+                       goal_rot_w, out_pos, out_rot, scratch, bad):
+    """Many independent solves sharing one plan (a crowd): inputs stacked on a leading
+    axis of length n, one scratch reused in turn. ``bad[c]`` gets character c's
+    ``check_inputs`` code; a character with bad input is skipped, the others solved."""
+    P = unpack(plan_i, plan_f)
+    nbad = 0
+    for c in range(root_pos.shape[0]):
+        bad[c] = check_inputs(P, root_pos[c], root_rot[c], goal_pos[c], goal_rot[c], goal_pos_w[c],
+                              goal_rot_w[c])
+        if bad[c] != -1:
+            nbad += 1
+            continue
+        solve_one(P, (root_pos[c, 0], root_pos[c, 1], root_pos[c, 2]),
+                  (root_rot[c, 0], root_rot[c, 1], root_rot[c, 2], root_rot[c, 3]),
+                  goal_pos[c], goal_rot[c], goal_pos_w[c], goal_rot_w[c], out_pos[c], out_rot[c],
+                  scratch)
+    return nbad
+
+
+@njit(cache=True)
+def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_points):
+    """Rest-pose helper for the plan builder: transported frames and spline points at the
+    parameters ``ts`` (same steps as the solve, so a rest-pose solve reproduces the rest
+    pose exactly), and the frame at t = 1 as the return value."""
+    frame = frame0
+    t_prev = 0.0
+    for j in range(ts.shape[0]):
+        frame = transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, ts[j], nsub)
+        t_prev = ts[j]
+        set4(out_frames, j, frame)
+        set3(out_points, j, hermite5_point(p0, v0, a0, p1, v1, a1, ts[j]))
+    return transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, 1.0, nsub)
+
+
+def _check_layout():
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 46 + 39
+
+
+_check_layout()

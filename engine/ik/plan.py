@@ -1,0 +1,615 @@
+"""The IK plan: which particles, constraints, spine splines and aim groups exist for one
+creature and one set of goal bodies (Hecker et al. 2008, sections 4.3.1 to 4.3.3).
+
+Built once per (creature, goal bodies, parameters) and cached by ``plan_for``; immutable.
+The arrays the kernels read are packed into two flat blobs (``plan_i`` int32 and
+``plan_f`` float64, see ``engine.ik._kernels.INT_FIELDS`` / ``FLOAT_FIELDS``) and are also
+readable by name as read-only views: ``plan.arrays.sc_len`` and so on.
+
+Who is solved (section 4.3.1): a body "has IK" when it or a body below it has a goal; the
+root always has IK. The solver writes the world pose of every body in ``plan.ik_bodies``
+and leaves ``plan.free_bodies`` (the sub-trees without IK) untouched: they belong to the
+caller (secondary motion, section 4.4). ``pose_free_rigid`` places them rigidly on their
+parents for tools and tests.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from engine.errors import DataError
+from engine.ik import _kernels as K
+from engine.model.caps import FOOT, HEAD, MOUTH
+
+
+class IKError(DataError):
+    """Bad input to the IK solver (goal bodies, arrays of the wrong shape, non-finite goals)."""
+
+
+@dataclass(frozen=True)
+class IKParams:
+    """Tuning of the solver; defaults in one place. Angles in radians, ratios of rest length."""
+
+    spine_outer: int = 5          # outer iterations of the spine phase (the paper's 5)
+    spine_inner: int = 3          # constraint sweeps per outer iteration
+    limb_outer: int = 5           # outer iterations of the limb phase
+    limb_inner: int = 3           # sweeps per limb outer iteration
+    soft_slope: float = 0.5       # share of a small length error removed per sweep
+    soft_band: float = 0.01       # relative error below which the constraint is soft
+    soft_width: float = 0.04      # width of the C1 blend from soft to full correction
+    spine_shrink: float = 0.9     # spine constraints project to [shrink, stretch] (the paper's 10%/120%)
+    spine_stretch: float = 1.2
+    chord_compress: float = 0.1   # simplified limbs may compress to 10% in the spine phase
+    limb_shrink: float = 0.98     # limb constraints project to [shrink, stretch]
+    limb_stretch: float = 1.02
+    spine_rootward_invmass: float = 0.5  # rootward end of a spine constraint moves half as much
+    buckle_on: float = math.radians(60.0)    # spine fold (over rest) where anti-buckling starts
+    buckle_full: float = math.radians(100.0)  # ... and where it is fully on
+    anti_buckling: bool = True
+    root_influence: float = 0.1   # share of the spine children's swing given to the root rotation
+    transport_substeps: int = 4   # minimal-twist steps between spline samples
+    straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
+    spline_regularization: float = 1e-3
+
+    def vector(self) -> np.ndarray:
+        v = np.zeros(K.NPARAM)
+        v[K.P_SPINE_OUTER] = self.spine_outer
+        v[K.P_SPINE_INNER] = self.spine_inner
+        v[K.P_LIMB_OUTER] = self.limb_outer
+        v[K.P_LIMB_INNER] = self.limb_inner
+        v[K.P_SOFT_SLOPE] = self.soft_slope
+        v[K.P_SOFT_BAND] = self.soft_band
+        v[K.P_SOFT_WIDTH] = self.soft_width
+        v[K.P_BUCKLE_ON] = self.buckle_on
+        v[K.P_BUCKLE_FULL] = self.buckle_full
+        v[K.P_ANTI_BUCKLING] = 1.0 if self.anti_buckling else 0.0
+        v[K.P_ROOT_INFLUENCE] = self.root_influence
+        v[K.P_SUBSTEPS] = self.transport_substeps
+        return v
+
+    def validate(self) -> None:
+        for name, value in asdict(self).items():
+            if isinstance(value, bool):
+                continue
+            if not np.isfinite(value) or value < 0:
+                raise IKError(f"IK parameter must be a finite number >= 0, got {value!r}", field=name,
+                              subject=None)
+        for name in ("spine_outer", "spine_inner", "limb_outer", "limb_inner", "transport_substeps"):
+            if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
+                raise IKError(f"must be a whole number >= 1, got {getattr(self, name)!r}", field=name)
+        if not 0.0 < self.soft_slope <= 1.0:
+            raise IKError(f"must be in (0, 1], got {self.soft_slope}", field="soft_slope")
+        if self.soft_width <= 0.0:
+            raise IKError("must be > 0", field="soft_width")
+        if not self.spine_shrink <= 1.0 <= self.spine_stretch:
+            raise IKError("spine_shrink <= 1 <= spine_stretch is required", field="spine_shrink")
+        if not self.limb_shrink <= 1.0 <= self.limb_stretch:
+            raise IKError("limb_shrink <= 1 <= limb_stretch is required", field="limb_shrink")
+        if not 0.0 < self.chord_compress <= 1.0:
+            raise IKError("must be in (0, 1]", field="chord_compress")
+        if self.buckle_full <= self.buckle_on:
+            raise IKError("buckle_full must be greater than buckle_on", field="buckle_full")
+
+
+DEFAULT_PARAMS = IKParams()
+
+
+# -- numpy quaternion helpers (plan time only) ------------------------------------------
+
+
+def _qmul(a, b):
+    return np.array(K.qmul(tuple(a), tuple(b)))
+
+
+def _qconj(q):
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def _qrot(q, v):
+    return np.array(K.qrot(tuple(float(x) for x in q), tuple(float(x) for x in v)))
+
+
+def fit_quintic(points: np.ndarray, ts: np.ndarray, regularization: float = 1e-3):
+    """Least-squares quintic Hermite through ``points`` (m, 3) at parameters ``ts`` with
+    its ends pinned to the first and last point (section 4.3.2, "Spine Splines"). The
+    unknown end tangents and accelerations are pulled weakly toward a straight segment
+    (tangent = chord, acceleration 0) so short chains with fewer than 4 interior points
+    still give one answer. Returns (v0, a0, v1, a1)."""
+    points = np.asarray(points, float)
+    p0, p1 = points[0], points[-1]
+    chord = p1 - p0
+    H = np.array([K.hermite5_basis(float(t)) for t in ts])
+    rhs = points - np.outer(H[:, 0], p0) - np.outer(H[:, 3], p1)
+    A = H[:, [1, 2, 4, 5]]
+    lam = math.sqrt(regularization)
+    A = np.vstack([A, lam * np.eye(4)])
+    rhs = np.vstack([rhs, lam * np.array([chord, np.zeros(3), chord, np.zeros(3)])])
+    x = np.linalg.lstsq(A, rhs, rcond=None)[0]
+    return x[0], x[1], x[2], x[3]
+
+
+# -- the plan ---------------------------------------------------------------------------
+
+
+class IKPlan:
+    """Particles, constraints, spine splines, limb chains and aim groups of one creature
+    for one set of goal bodies. Immutable. Fields:
+
+    creature, goal_bodies (tuple, ascending), params (IKParams)
+    plan_i, plan_f        the packed blobs the kernels read
+    arrays                the same as a ``PlanArrays`` NamedTuple of read-only views
+    has_ik (nbody,) bool  bodies in the IK sub-tree
+    ik_bodies (k,) int32  bodies the solver writes (root, IK spine bodies, delegated
+                          bodies, IK limb bodies)
+    free_bodies (m,) int32 bodies left to the caller
+    delegated {body: spine parent}  goals handed to the spine (mouths, heads)
+    scratch_size          float64 elements of scratch a solve needs
+    """
+
+    def __init__(self, creature, goal_bodies, params: IKParams = DEFAULT_PARAMS):
+        params.validate()
+        self.creature = creature
+        self.params = params
+        goals = _check_goal_bodies(creature, goal_bodies)
+        self.goal_bodies = tuple(goals)
+        fields, info = _build(creature, goals, params)
+        self.has_ik = info["has_ik"]
+        self.delegated = info["delegated"]
+        self.ik_bodies = np.flatnonzero(self.has_ik).astype(np.int32)
+        self.free_bodies = np.flatnonzero(~self.has_ik).astype(np.int32)
+        self.spine_branch_bodies = tuple(info["branch_bodies"])
+        self.plan_i, self.plan_f, self.scratch_size = _pack(fields)
+        for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.plan_i, self.plan_f):
+            a.flags.writeable = False
+        self.arrays = K.PlanArrays(**{k: _ro(v) for k, v in _views(self.plan_i, self.plan_f).items()})
+
+    @property
+    def nbody(self) -> int:
+        return self.creature.nbody
+
+    def counts(self) -> dict[str, int]:
+        a = self.arrays
+        return {
+            "spine_particles": int(np.sum(a.sp_kind == 1)) + 1,
+            "spine_constraints": int(np.sum(a.sc_kind != 3)),
+            "spine_splines": int(a.seg_a.shape[0]),
+            "limb_particles": int(a.lp_body.shape[0]),
+            "limb_constraints": int(a.lc_a.shape[0]),
+            "goals": len(self.goal_bodies),
+            "ik_bodies": int(self.ik_bodies.shape[0]),
+        }
+
+    def make_scratch(self, n: int | None = None) -> np.ndarray:
+        """A scratch buffer for ``solve_ik`` (one buffer serves a whole batch too)."""
+        return np.zeros(self.scratch_size)
+
+    def __repr__(self) -> str:
+        names = [self.creature.body_names[g] for g in self.goal_bodies]
+        return f"IKPlan('{self.creature.name}', goals={names}, {self.counts()})"
+
+
+def _ro(a):
+    a = a.view()
+    a.flags.writeable = False
+    return a
+
+
+_cache: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def plan_for(creature, goal_bodies, params: IKParams = DEFAULT_PARAMS) -> IKPlan:
+    """The cached plan for (creature, set of goal bodies, params). Goal bodies may be
+    indices or names."""
+    key = (frozenset(_check_goal_bodies(creature, goal_bodies)), params)
+    per = _cache.setdefault(creature, {})
+    plan = per.get(key)
+    if plan is None:
+        plan = IKPlan(creature, key[0], params)
+        per[key] = plan
+    return plan
+
+
+def _check_goal_bodies(creature, goal_bodies) -> list[int]:
+    out = set()
+    for g in goal_bodies:
+        if isinstance(g, str):
+            try:
+                g = creature.body(g)
+            except KeyError as e:
+                raise IKError(str(e.args[0]), subject=g, field="goal_bodies") from None
+        if isinstance(g, bool) or not isinstance(g, (int, np.integer)):
+            raise IKError(f"goal body must be a body index or name, got {g!r}", field="goal_bodies")
+        g = int(g)
+        if not 0 <= g < creature.nbody:
+            raise IKError(f"goal body index {g} is outside 0..{creature.nbody - 1} of creature "
+                          f"'{creature.name}'", field="goal_bodies")
+        if g == 0:
+            raise IKError("the root is forward-kinematically controlled and cannot have an IK "
+                          "goal; set root_pos/root_rot instead", subject=creature.body_names[0],
+                          field="goal_bodies")
+        out.add(g)
+    return sorted(out)
+
+
+def _build(c, goals: list[int], prm: IKParams):
+    n = c.nbody
+    parent = c.body_parent
+    is_spine = c.body_is_spine
+    caps = c.body_caps
+    rr_rot = c.body_rootrel_rot
+    rr_pos = c.body_rootrel_pos
+    rr_joint = c.body_rootrel_joint
+    goal_set = set(goals)
+    slot_of = {g: k for k, g in enumerate(goals)}
+
+    # Delegated goals (4.3.1): a mouth or head hanging off a spine body hands its goal to
+    # that spine body so the spine bends, unless the spine body is the root (which the
+    # solver does not move) or bodies below it have goals of their own.
+    delegated: dict[int, int] = {}
+    for g in goals:
+        p = int(parent[g])
+        if (not is_spine[g] and (int(caps[g]) & (MOUTH | HEAD)) and p > 0 and is_spine[p]
+                and not any(h in goal_set for h in range(g + 1, int(c.body_subtree_end[g])))):
+            delegated[g] = p
+
+    # The IK sub-tree.
+    has_ik = np.zeros(n, bool)
+    has_ik[0] = True
+    for g in goals:
+        j = g
+        while j >= 0 and not has_ik[j]:
+            has_ik[j] = True
+            j = int(parent[j])
+
+    # Spine sides, outward from the root, restricted to bodies with IK.
+    chain = [int(s) for s in c.spine_chain]
+    ri = c.spine_root_index
+    sides = [[s for s in chain[ri + 1:] if has_ik[s]], [s for s in reversed(chain[:ri]) if has_ik[s]]]
+    nonspine_ik_child = np.zeros(n, bool)
+    for b in range(1, n):
+        if has_ik[b] and not is_spine[b]:
+            nonspine_ik_child[parent[b]] = True
+
+    sp_kind, sp_body, sp_rest = [0], [0], [np.zeros(3)]
+    sp_of = {0: 0}
+    sc = []  # dicts: a, b, kind, len, lo, hi, plo, phi, inva, invb, depth
+    ch = []  # chain slots
+    segs = []
+    branch_bodies = []
+    side_cons = []
+    for side in sides:
+        branches = [s for k, s in enumerate(side) if s in goal_set or nonspine_ik_child[s] or k == len(side) - 1]
+        cons = []
+        prev_body, prev_p, prev_k = 0, 0, -1
+        for depth, s in enumerate(branches, start=1):
+            p = len(sp_kind)
+            sp_kind.append(1)
+            sp_body.append(s)
+            sp_rest.append(rr_joint[s].copy())
+            sp_of[s] = p
+            branch_bodies.append(s)
+            L = float(np.linalg.norm(rr_joint[s] - sp_rest[prev_p]))
+            ci = len(sc)
+            sc.append(dict(a=prev_p, b=p, kind=0, len=L, lo=1.0, hi=1.0, plo=prm.spine_shrink,
+                           phi=prm.spine_stretch, inva=0.0 if prev_p == 0 else prm.spine_rootward_invmass,
+                           invb=1.0, depth=depth))
+            cons.append(ci)
+            interior = side[side.index(prev_body) + 1 if prev_body != 0 else 0: side.index(s)]
+            segs.append(dict(A=prev_body, B=s, a=prev_p, b=p, interior=interior))
+            ch.append(dict(particle=p, prev=prev_p, prev_k=prev_k, next=-1, con=ci, seg=len(segs) - 1,
+                           depth=depth))
+            if prev_k >= 0:
+                ch[prev_k]["next"] = p
+            prev_body, prev_p, prev_k = s, p, len(ch) - 1
+        side_cons.append(cons)
+
+    # Goals in the spine phase: delegated goals (rigid) and simplified limbs (4.3.2).
+    goal_sp = np.full(len(goals), -1, np.int32)
+    goal_limb_root = np.full(len(goals), -1, np.int32)
+    dg = []
+    for g in goals:
+        k = slot_of[g]
+        if is_spine[g]:
+            goal_sp[k] = sp_of[g]
+            continue
+        limb_root = int(c.limb_root[c.body_limb[g]])
+        if g in delegated:
+            sp = sp_of[delegated[g]]
+        else:
+            goal_limb_root[k] = limb_root
+            sp = sp_of[int(c.body_spine_attach[g])]
+        L = float(np.linalg.norm(rr_joint[g] - sp_rest[sp]))
+        if L < 1e-9:
+            continue
+        p = len(sp_kind)
+        sp_kind.append(2)
+        sp_body.append(g)
+        sp_rest.append(rr_joint[g].copy())
+        goal_sp[k] = p
+        depth = next((s["depth"] for s in ch if s["particle"] == sp), 0) + 1
+        if g in delegated:
+            sc.append(dict(a=sp, b=p, kind=2, len=L, lo=1.0, hi=1.0, plo=1.0, phi=1.0, inva=1.0,
+                           invb=1.0, depth=depth))
+            s_body = delegated[g]
+            dg.append(dict(body=g, goal=k, particle=p, spine_particle=sp,
+                           chord=c.body_local_joint[g] + c.body_joint_offset[s_body]))
+        else:
+            reach = float(c.body_limb_length[g]) + float(np.linalg.norm(rr_joint[limb_root] - sp_rest[sp]))
+            lo = 1.0 if g == limb_root else prm.chord_compress
+            sc.append(dict(a=sp, b=p, kind=1, len=L, lo=lo, hi=max(1.0, reach / L), plo=lo,
+                           phi=max(1.0, reach / L), inva=1.0, invb=1.0, depth=depth))
+
+    # Anti-buckling anchors at each spine particle's rest position.
+    for s in branch_bodies:
+        sp = sp_of[s]
+        p = len(sp_kind)
+        sp_kind.append(3)
+        sp_body.append(s)
+        sp_rest.append(sp_rest[sp].copy())
+        sc.append(dict(a=sp, b=p, kind=3, len=0.0, lo=1.0, hi=1.0, plo=1.0, phi=1.0, inva=1.0, invb=0.0,
+                       depth=-1))
+
+    # Leaves inward (section 4.3.2, footnote 10): deepest first, anchors last.
+    order = sorted(range(len(sc)), key=lambda i: (sc[i]["kind"] == 3, -sc[i]["depth"]))
+    remap = {old: new for new, old in enumerate(order)}
+    sc = [sc[i] for i in order]
+    for s in ch:
+        s["con"] = remap[s["con"]]
+    side_cons = [[remap[x] for x in cons] for cons in side_cons]
+    sp_rest_arr = np.array(sp_rest)
+
+    # Buckling watch: neighbouring spine constraints (through the root between sides).
+    def rest_dir(ci):
+        return sp_rest_arr[sc[ci]["b"]] - sp_rest_arr[sc[ci]["a"]]
+
+    def angle(u, v):
+        nu, nv = np.linalg.norm(u), np.linalg.norm(v)
+        if nu < 1e-12 or nv < 1e-12:
+            return 0.0
+        return float(np.arccos(np.clip(u @ v / (nu * nv), -1.0, 1.0)))
+
+    bp = []  # (c1, sign1, c2, rest angle)
+    for si, cons in enumerate(side_cons):
+        other = side_cons[1 - si]
+        for k, ci in enumerate(cons):
+            if k > 0:
+                bp.append((cons[k - 1], 1.0, ci, angle(rest_dir(cons[k - 1]), rest_dir(ci))))
+            elif other:
+                if si == 0:
+                    bp.append((other[0], -1.0, ci, angle(-rest_dir(other[0]), rest_dir(ci))))
+            else:
+                bp.append((-1, 1.0, ci, 0.0))
+
+    # Spine splines: quintic least-squares fits between particles, stored in the end
+    # bodies' rest frames, plus each interior body's parameter, offset and rotation
+    # relative to the frame transported along the rest spline.
+    seg_v0, seg_a0, seg_v1, seg_a1, seg_chord, seg_twist = [], [], [], [], [], []
+    segbody_body, segbody_t, segbody_off, segbody_rot, seg_adr, seg_num = [], [], [], [], [], []
+    for sg in segs:
+        A, B = sg["A"], sg["B"]
+        pts = np.array([sp_rest_arr[sg["a"]]] + [rr_joint[b] for b in sg["interior"]] + [rr_joint[B]])
+        d = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+        ts = d / d[-1] if d[-1] > 1e-12 else np.linspace(0.0, 1.0, len(pts))
+        v0, a0, v1, a1 = fit_quintic(pts, ts, prm.spline_regularization)
+        sg["v0_rootrel"] = v0
+        qa, qb = rr_rot[A], rr_rot[B]
+        seg_v0.append(_qrot(_qconj(qa), v0))
+        seg_a0.append(_qrot(_qconj(qa), a0))
+        seg_v1.append(_qrot(_qconj(qb), v1))
+        seg_a1.append(_qrot(_qconj(qb), a1))
+        seg_chord.append(float(np.linalg.norm(pts[-1] - pts[0])))
+        inner_t = np.ascontiguousarray(ts[1:-1], dtype=np.float64)
+        frames = np.zeros((len(inner_t), 4))
+        points = np.zeros((len(inner_t), 3))
+        f_end = K.transport_rest(tuple(pts[0]), tuple(v0), tuple(a0), tuple(pts[-1]), tuple(v1), tuple(a1),
+                                 tuple(float(x) for x in qa), inner_t, int(prm.transport_substeps),
+                                 frames, points)
+        seg_twist.append(_qmul(_qconj(np.array(f_end)), qb))
+        seg_adr.append(len(segbody_body))
+        seg_num.append(len(inner_t))
+        for j, b in enumerate(sg["interior"]):
+            fi = _qconj(frames[j])
+            segbody_body.append(b)
+            segbody_t.append(inner_t[j])
+            segbody_off.append(_qrot(fi, rr_joint[b] - points[j]))
+            segbody_rot.append(_qmul(fi, rr_rot[b]))
+
+    # Rest tangents at the chain particles, by the same formulas as the solve.
+    ch_tan = []
+    for k, s in enumerate(ch):
+        pi_, pp = sp_rest_arr[s["particle"]], sp_rest_arr[s["prev"]]
+        if s["next"] >= 0:
+            t = 0.5 * (sp_rest_arr[s["next"]] - pp)
+        else:
+            vprev = ch_tan[s["prev_k"]] if s["prev_k"] >= 0 else segs[s["seg"]]["v0_rootrel"]
+            t = 1.5 * (pi_ - pp) - 0.5 * vprev
+        ch_tan.append(t)
+
+    # -- limb phase (4.3.3) --------------------------------------------------------------
+    lp = []  # dicts
+    lp_of: dict[int, int] = {}
+    lc = []
+    ag_pivot, ag_moved, ag_goal = [], [], []
+    for li in range(c.nlimb):
+        r = int(c.limb_root[li])
+        if not has_ik[r] or r in delegated:
+            continue
+        s = int(c.limb_attach[li])
+        qs_inv = _qconj(rr_rot[s])
+        bodies = [b for b in range(r, int(c.body_subtree_end[r])) if has_ik[b]]
+        for b in bodies:
+            kids = [int(k) for k in c.children(b) if has_ik[k]]
+            lp_of[b] = len(lp)
+            lp.append(dict(body=b, parent=lp_of.get(int(parent[b]), -1) if b != r else -1, con=-1,
+                           attach=s, kids=kids, local=_qrot(qs_inv, rr_joint[b] - rr_pos[s]),
+                           rot_local=_qmul(qs_inv, rr_rot[b]), goal=slot_of.get(b, -1)))
+        for b in bodies:
+            kids = lp[lp_of[b]]["kids"]
+            for k in kids:
+                L = float(np.linalg.norm(rr_joint[k] - rr_joint[b]))
+                lp[lp_of[k]]["con"] = len(lc)
+                lc.append(dict(a=lp_of[b], b=lp_of[k], len=L, inva=0.0 if b == r else 1.0, invb=1.0,
+                               depth=int(c.body_depth[k])))
+            for x in range(len(kids)):
+                for y in range(x + 1, len(kids)):
+                    L = float(np.linalg.norm(rr_joint[kids[y]] - rr_joint[kids[x]]))
+                    lc.append(dict(a=lp_of[kids[x]], b=lp_of[kids[y]], len=L, inva=1.0, invb=1.0,
+                                   depth=int(c.body_depth[kids[x]])))
+
+        def goals_below(b, include_self):
+            lo = b if include_self else b + 1
+            return [slot_of[h] for h in range(lo, int(c.body_subtree_end[b])) if h in slot_of]
+
+        def moved_below(b):
+            return [lp_of[h] for h in range(b + 1, int(c.body_subtree_end[b])) if h in lp_of]
+
+        groups = [(r, goals_below(r, False), moved_below(r))]
+        for b in bodies:
+            kids = lp[lp_of[b]]["kids"]
+            if len(kids) >= 2:
+                for k in kids:
+                    groups.append((k, goals_below(k, False), moved_below(k)))
+        for pivot, gl, mv in groups:
+            if gl and mv:
+                ag_pivot.append(lp_of[pivot])
+                ag_goal.append(gl)
+                ag_moved.append(mv)
+
+    # Bend hint: a chain that is straight at rest has no preferred bend side; start its
+    # middle joints slightly off the line (forward for legs ending in a foot, like knees;
+    # backward otherwise, like elbows; down when the chain runs along x) so the solver
+    # always bends it the same way.
+    feet = (caps & np.uint32(FOOT)) != 0
+    for i, P in enumerate(lp):
+        P["init"] = P["local"].copy()
+    for i, P in enumerate(lp):
+        if P["parent"] < 0 or len(P["kids"]) != 1:
+            continue
+        b = P["body"]
+        pp, kk = lp[P["parent"]]["body"], P["kids"][0]
+        u, v = rr_joint[pp] - rr_joint[b], rr_joint[kk] - rr_joint[b]
+        nu, nv = np.linalg.norm(u), np.linalg.norm(v)
+        if nu < 1e-9 or nv < 1e-9:
+            continue
+        if np.linalg.norm(np.cross(u, v)) / (nu * nv) > 0.05 or u @ v > 0:
+            continue
+        chord = (v - u) / np.linalg.norm(v - u)
+        leg = bool(np.any(feet[b:int(c.body_subtree_end[b])]))
+        hint = np.array([1.0 if leg else -1.0, 0.0, 0.0])
+        perp = hint - (hint @ chord) * chord
+        if np.linalg.norm(perp) < 0.3:
+            hint = np.array([0.0, 0.0, -1.0])
+            perp = hint - (hint @ chord) * chord
+        perp /= np.linalg.norm(perp)
+        off = prm.straight_bend * 0.5 * (nu + nv) * perp
+        P["init"] = P["local"] + _qrot(_qconj(rr_rot[P["attach"]]), off)
+
+    for P in lp:
+        kids = P["kids"]
+        P["mode"] = 2 if not kids else (0 if len(kids) == 1 else 1)
+        P["c1"] = lp_of[kids[0]] if kids else -1
+        P["c2"] = lp_of[kids[1]] if len(kids) > 1 else -1
+
+    lc_order = sorted(range(len(lc)), key=lambda i: -lc[i]["depth"])
+    lc_remap = {old: new for new, old in enumerate(lc_order)}
+    lc = [lc[i] for i in lc_order]
+    for P in lp:
+        if P["con"] >= 0:
+            P["con"] = lc_remap[P["con"]]
+
+    goal_lp = np.array([lp_of.get(g, -1) for g in goals], np.int32)
+    rg_body = sorted(delegated)
+
+    i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
+    f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
+    nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
+    sizes = [3 * nsp, nsp, 3 * nlp, 3 * nlp, nlp, 3 * ngoal, 3 * nch, 4]
+    layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
+    fields = dict(
+        b_parent=i32(parent),
+        sp_kind=i32(sp_kind), sp_body=i32(sp_body),
+        sc_a=i32([x["a"] for x in sc]), sc_b=i32([x["b"] for x in sc]), sc_kind=i32([x["kind"] for x in sc]),
+        ch_particle=i32([x["particle"] for x in ch]), ch_prev=i32([x["prev"] for x in ch]),
+        ch_prev_k=i32([x["prev_k"] for x in ch]), ch_next=i32([x["next"] for x in ch]),
+        ch_con=i32([x["con"] for x in ch]), ch_seg=i32([x["seg"] for x in ch]),
+        bp_c1=i32([x[0] for x in bp]), bp_c2=i32([x[2] for x in bp]),
+        seg_a=i32([x["a"] for x in segs]), seg_b=i32([x["b"] for x in segs]),
+        seg_body_adr=i32(seg_adr), seg_body_num=i32(seg_num), segbody_body=i32(segbody_body),
+        dg_body=i32([x["body"] for x in dg]), dg_goal=i32([x["goal"] for x in dg]),
+        dg_particle=i32([x["particle"] for x in dg]), dg_spine_particle=i32([x["spine_particle"] for x in dg]),
+        rg_body=i32(rg_body),
+        lp_body=i32([x["body"] for x in lp]), lp_parent=i32([x["parent"] for x in lp]),
+        lp_con=i32([x["con"] for x in lp]), lp_attach=i32([x["attach"] for x in lp]),
+        lp_mode=i32([x["mode"] for x in lp]), lp_c1=i32([x["c1"] for x in lp]), lp_c2=i32([x["c2"] for x in lp]),
+        lp_goal=i32([x["goal"] for x in lp]),
+        lc_a=i32([x["a"] for x in lc]), lc_b=i32([x["b"] for x in lc]),
+        ag_pivot=i32(ag_pivot),
+        ag_moved_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_moved])[:-1]] if ag_moved else []),
+        ag_moved_num=i32([len(m) for m in ag_moved]),
+        ag_goal_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_goal])[:-1]] if ag_goal else []),
+        ag_goal_num=i32([len(m) for m in ag_goal]),
+        ag_moved=i32([x for m in ag_moved for x in m]), ag_goal=i32([x for m in ag_goal for x in m]),
+        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_limb_root=i32(goal_limb_root),
+        scratch_layout=layout,
+        b_rootrel_rot=f64(rr_rot, 4), b_rootrel_pos=f64(rr_pos, 3), b_rootrel_joint=f64(rr_joint, 3),
+        b_joint_offset=f64(c.body_joint_offset, 3), b_local_rot=f64(c.body_local_rot, 4),
+        b_local_pos=f64(c.body_local_pos, 3), b_local_joint=f64(c.body_local_joint, 3),
+        sp_rest=f64(sp_rest_arr, 3),
+        sc_len=f64([x["len"] for x in sc], 1), sc_lo=f64([x["lo"] for x in sc], 1),
+        sc_hi=f64([x["hi"] for x in sc], 1), sc_plo=f64([x["plo"] for x in sc], 1),
+        sc_phi=f64([x["phi"] for x in sc], 1), sc_inva=f64([x["inva"] for x in sc], 1),
+        sc_invb=f64([x["invb"] for x in sc], 1),
+        bp_sign1=f64([x[1] for x in bp], 1), bp_rest_angle=f64([x[3] for x in bp], 1),
+        ch_rest_tangent=f64(ch_tan, 3),
+        seg_v0=f64(seg_v0, 3), seg_a0=f64(seg_a0, 3), seg_v1=f64(seg_v1, 3), seg_a1=f64(seg_a1, 3),
+        seg_rest_chord=f64(seg_chord, 1), seg_rest_twist=f64(seg_twist, 4),
+        segbody_t=f64(segbody_t, 1), segbody_off=f64(segbody_off, 3), segbody_rot=f64(segbody_rot, 4),
+        dg_chord=f64([x["chord"] for x in dg], 3),
+        lp_local=f64([x["local"] for x in lp], 3), lp_init_local=f64([x["init"] for x in lp], 3),
+        lp_rot_local=f64([x["rot_local"] for x in lp], 4),
+        lc_len=f64([x["len"] for x in lc], 1), lc_lo=f64([1.0] * len(lc), 1), lc_hi=f64([1.0] * len(lc), 1),
+        lc_plo=f64([prm.limb_shrink] * len(lc), 1), lc_phi=f64([prm.limb_stretch] * len(lc), 1),
+        lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
+        params=prm.vector(),
+    )
+    fields["_scratch_size"] = int(sum(sizes))
+    info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies)
+    return fields, info
+
+
+def _pack(fields):
+    """Pack the named arrays into the two blobs; header = (offset, length) per field."""
+    nh = 2 * (len(K.INT_FIELDS) + len(K.FLOAT_FIELDS))
+    ints = [np.ascontiguousarray(fields[name], np.int32).reshape(-1) for name in K.INT_FIELDS]
+    flts = [np.ascontiguousarray(fields[name], np.float64).reshape(-1) for name in K.FLOAT_NAMES]
+    header = np.zeros(nh, np.int32)
+    off = nh
+    for k, a in enumerate(ints):
+        header[2 * k], header[2 * k + 1] = off, a.size
+        off += a.size
+    plan_i = np.concatenate([header] + ints).astype(np.int32)
+    off = 0
+    for k, a in enumerate(flts):
+        h = 2 * (len(K.INT_FIELDS) + k)
+        plan_i[h], plan_i[h + 1] = off, a.size
+        off += a.size
+    plan_f = np.concatenate(flts) if flts else np.zeros(0)
+    return plan_i, np.ascontiguousarray(plan_f, np.float64), fields["_scratch_size"]
+
+
+def _views(plan_i, plan_f):
+    """The fields as numpy views of the blobs, by name (the Python twin of ``unpack``)."""
+    out = {}
+    for k, name in enumerate(K.INT_FIELDS):
+        o, n = int(plan_i[2 * k]), int(plan_i[2 * k + 1])
+        out[name] = plan_i[o:o + n]
+    for k, (name, w) in enumerate(K.FLOAT_FIELDS):
+        h = 2 * (len(K.INT_FIELDS) + k)
+        o, n = int(plan_i[h]), int(plan_i[h + 1])
+        a = plan_f[o:o + n]
+        out[name] = a.reshape(-1, w) if w > 1 else a
+    return out

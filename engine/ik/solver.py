@@ -1,0 +1,181 @@
+"""The two-phase Particle IK solver: goals in, world poses of the IK sub-tree out.
+
+Hecker et al. 2008, section 4.3. One solve is one numba call over plain arrays:
+
+1. goals -> 3-DOF targets at the goal bodies' joints (4.3.1);
+2. spine phase: spine particles at IK branch points, simplified limbs (one chord
+   constraint from the spine to each limb goal, allowed to compress to 10%), delegated
+   goals (mouths/heads pull their spine body), 5 outer iterations leaves-inward, buckling
+   watch and blend toward the root-relative rest pose (4.3.2);
+3. the root's spine children nudge the root's rotation (footnote 8; ``root_influence``);
+4. spine reconstruction: outward projection, tangents, minimal twist, delegated
+   rotations, interior spine bodies by frame transport along quintic splines (4.3.2);
+5. limb phase: aim preconditioner, constraint iterations, outward projection,
+   orientations by minimal twist or from two constraint axes (4.3.3).
+
+Every solve starts from the root-relative rest pose: no state is carried between solves,
+so the pose depends only on the current goals (path independence, objective 4).
+
+Output: ``out_pos (nbody, 3)`` and ``out_rot (nbody, 4)`` get the world pose of every body
+in ``plan.ik_bodies`` (including the root: its position and rotation as given, the
+rotation nudged by ``root_influence``); rows of ``plan.free_bodies`` are left untouched
+for the caller (secondary motion). Goals: ``goal_pos (nbody, 3)`` is the target of the
+body's origin, ``goal_rot (nbody, 4)`` its target rotation (w, x, y, z), and
+``goal_pos_weight`` / ``goal_rot_weight`` (nbody,) in [0, 1]; weight 0 means no goal. Only
+bodies in ``plan.goal_bodies`` are read.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from engine.ik import _kernels as K
+from engine.ik.plan import DEFAULT_PARAMS, IKError, IKParams, IKPlan, plan_for
+
+
+class IKGoals:
+    """Preallocated goal arrays of one character (or a stack of ``n`` characters).
+
+    goal_pos (nbody, 3) float64        target of each body's origin, world, m
+    goal_rot (nbody, 4) float64        target rotation, w-first unit quaternion
+    goal_pos_weight (nbody,) float64   0 = no position goal, 1 = full
+    goal_rot_weight (nbody,) float64   0 = no rotation goal, 1 = full
+    With ``n`` given every array gets a leading axis of length n (a crowd).
+    """
+
+    def __init__(self, nbody: int, n: int | None = None):
+        lead = () if n is None else (int(n),)
+        self.goal_pos = np.zeros(lead + (nbody, 3))
+        self.goal_rot = np.zeros(lead + (nbody, 4))
+        self.goal_rot[..., 0] = 1.0
+        self.goal_pos_weight = np.zeros(lead + (nbody,))
+        self.goal_rot_weight = np.zeros(lead + (nbody,))
+
+    def clear(self) -> None:
+        self.goal_pos_weight[...] = 0.0
+        self.goal_rot_weight[...] = 0.0
+
+    def set(self, body: int, pos=None, rot=None, pos_weight: float = 1.0, rot_weight: float = 1.0,
+            index: int | None = None) -> None:
+        """Set one body's goal (``index`` selects the character in a stack)."""
+        sel = (body,) if index is None else (index, body)
+        if pos is not None:
+            self.goal_pos[sel] = pos
+            self.goal_pos_weight[sel] = pos_weight
+        if rot is not None:
+            self.goal_rot[sel] = rot
+            self.goal_rot_weight[sel] = rot_weight
+
+
+def _check_array(name, a, shape):
+    if not isinstance(a, np.ndarray) or a.dtype != np.float64 or a.shape != shape or not a.flags.c_contiguous:
+        got = f"{type(a).__name__}" if not isinstance(a, np.ndarray) else f"{a.dtype} {a.shape}"
+        raise IKError(f"expected a C-contiguous float64 array of shape {shape}, got {got}", field=name,
+                      subject=None)
+
+
+def _raise_bad(plan, code, who=""):
+    if code == -2:
+        raise IKError(f"{who}root pose is not finite or the root rotation is zero",
+                      subject=plan.creature.body_names[0], field="root_pos/root_rot")
+    raise IKError(f"{who}goal is not usable: weights must be in [0, 1], positions finite and "
+                  f"rotations finite and non-zero where their weight is > 0",
+                  subject=plan.creature.body_names[code], field="goals")
+
+
+def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
+             scratch: np.ndarray) -> None:
+    """Solve one character: writes the IK sub-tree's world poses into ``out_pos``/``out_rot``.
+    ``scratch`` comes from ``plan.make_scratch()``. Allocation-free after compilation."""
+    n = plan.creature.nbody
+    _check_array("root_pos", root_pos, (3,))
+    _check_array("root_rot", root_rot, (4,))
+    _check_array("goal_pos", goals.goal_pos, (n, 3))
+    _check_array("goal_rot", goals.goal_rot, (n, 4))
+    _check_array("goal_pos_weight", goals.goal_pos_weight, (n,))
+    _check_array("goal_rot_weight", goals.goal_rot_weight, (n,))
+    _check_array("out_pos", out_pos, (n, 3))
+    _check_array("out_rot", out_rot, (n, 4))
+    _check_array("scratch", scratch, (plan.scratch_size,))
+    code = K.solve_packed(plan.plan_i, plan.plan_f, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
+                          goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch)
+    if code != -1:
+        _raise_bad(plan, code)
+
+
+def solve_ik_batch(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos, out_rot, scratch,
+                   bad: np.ndarray | None = None) -> None:
+    """Many independent solves sharing ``plan`` in one kernel call: ``root_pos (c, 3)``,
+    ``root_rot (c, 4)``, ``goals`` made with ``IKGoals(nbody, c)``, ``out_pos (c, nbody, 3)``,
+    ``out_rot (c, nbody, 4)``. ``bad`` (c,) int64, if given, receives a per-character code
+    (-1 solved) and nothing is raised; otherwise the first bad character raises."""
+    n = plan.creature.nbody
+    c = root_pos.shape[0] if isinstance(root_pos, np.ndarray) and root_pos.ndim == 2 else -1
+    _check_array("root_pos", root_pos, (c, 3))
+    _check_array("root_rot", root_rot, (c, 4))
+    _check_array("goal_pos", goals.goal_pos, (c, n, 3))
+    _check_array("goal_rot", goals.goal_rot, (c, n, 4))
+    _check_array("goal_pos_weight", goals.goal_pos_weight, (c, n))
+    _check_array("goal_rot_weight", goals.goal_rot_weight, (c, n))
+    _check_array("out_pos", out_pos, (c, n, 3))
+    _check_array("out_rot", out_rot, (c, n, 4))
+    _check_array("scratch", scratch, (plan.scratch_size,))
+    raise_on_bad = bad is None
+    if bad is None:
+        bad = np.empty(c, np.int64)
+    nbad = K.solve_packed_batch(plan.plan_i, plan.plan_f, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
+                                goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch, bad)
+    if nbad and raise_on_bad:
+        k = int(np.flatnonzero(bad != -1)[0])
+        _raise_bad(plan, int(bad[k]), who=f"character {k}: ")
+
+
+class IKSolver:
+    """Convenience owner of one character's plan, goals, scratch and output.
+
+    >>> solver = IKSolver(creature, ["hand_l", "foot_l"])
+    >>> solver.goals.set(creature.body("hand_l"), pos=(0.3, 0.2, 1.2))
+    >>> solver.solve(root_pos, root_rot)      # -> solver.out_pos, solver.out_rot
+    """
+
+    def __init__(self, creature, goal_bodies, params: IKParams = DEFAULT_PARAMS):
+        self.plan = plan_for(creature, goal_bodies, params)
+        n = creature.nbody
+        self.goals = IKGoals(n)
+        self.scratch = self.plan.make_scratch()
+        self.out_pos = np.zeros((n, 3))
+        self.out_rot = np.zeros((n, 4))
+        self.out_rot[:, 0] = 1.0
+
+    def solve(self, root_pos, root_rot):
+        solve_ik(self.plan, np.ascontiguousarray(root_pos, np.float64), np.ascontiguousarray(root_rot, np.float64),
+                 self.goals, self.out_pos, self.out_rot, self.scratch)
+        return self.out_pos, self.out_rot
+
+
+def pose_free_rigid(plan: IKPlan, out_pos: np.ndarray, out_rot: np.ndarray) -> None:
+    """Place the bodies the solver leaves to the caller (``plan.free_bodies``) rigidly on
+    their parents at their local rest transform. For tools, pictures and tests; the
+    runtime gives these bodies secondary motion instead."""
+    c = plan.creature
+    for b in plan.free_bodies:
+        p = int(c.body_parent[b])
+        rp = tuple(out_rot[p])
+        out_rot[b] = K.qnormalize(K.qmul(rp, tuple(c.body_local_rot[b])))
+        out_pos[b] = np.asarray(out_pos[p]) + np.array(K.qrot(rp, tuple(c.body_local_pos[b])))
+
+
+def rest_pose_world(creature, root_pos, root_rot):
+    """World pose of every body in the root-relative rest pose carried by the root."""
+    n = creature.nbody
+    pos = np.empty((n, 3))
+    rot = np.empty((n, 4))
+    rr = tuple(float(x) for x in root_rot)
+    for b in range(n):
+        rot[b] = K.qmul(rr, tuple(creature.body_rootrel_rot[b]))
+        pos[b] = np.asarray(root_pos) + np.array(K.qrot(rr, tuple(creature.body_rootrel_pos[b])))
+    return pos, rot
+
+
+__all__ = ["IKError", "IKGoals", "IKParams", "IKPlan", "IKSolver", "plan_for", "pose_free_rigid",
+           "rest_pose_world", "solve_ik", "solve_ik_batch"]
