@@ -16,6 +16,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from engine.errors import BvhError, CreatureError
 from engine.io.bvh import (
@@ -671,7 +673,7 @@ Frame Time: 1
     assert joint_caps(clip, table)[3:] == [["detail"], ["foot"]]
     yaml_path = tmp_path / "caps.yaml"
     yaml_path.write_text("# my rig\npaw.*: [foot]\ngizmo: detail\n")
-    assert load_caps_table(yaml_path) == {"paw.*": ["foot"], "gizmo": "detail"}
+    assert load_caps_table(yaml_path) == {"paw.*": ["foot"], "gizmo": ["detail"]}
     creature = creature_from_bvh(clip, caps_table=load_caps_table(yaml_path), scale=0.1)
     assert creature.nleg == 1
     # A table that makes the spine branch fails in the builder, naming the BVH file and
@@ -772,3 +774,55 @@ def test_a_jaw_takes_the_mouth_from_the_head():
                         "      JOINT Jaw\n      {\n        OFFSET 0 0 2\n        CHANNELS 0\n      }\n    }")
     caps = dict(zip(parse_bvh_text(text).joint_names, joint_caps(parse_bvh_text(text))))
     assert caps["Head"] == ["spine", "head"] and caps["Jaw"] == ["mouth"]
+
+
+@st.composite
+def random_clips(draw):
+    """Random skeletons: any tree, 0-6 channels per joint in any order, End Sites anywhere."""
+    nj = draw(st.integers(1, 7))
+    parent = [-1] + [draw(st.integers(0, j - 1)) for j in range(1, nj)]
+    # Depth-first order with children in index order (the order a file has).
+    kids = [[c for c in range(nj) if parent[c] == j] for j in range(nj)]
+    order, stack = [], [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(kids[j]))
+    new = {old: k for k, old in enumerate(order)}
+    parent = [-1] + [new[parent[o]] for o in order[1:]]
+    finite = st.floats(-100, 100, allow_nan=False)
+    channels = tuple(tuple(draw(st.permutations(list(CHANNEL_NAMES_ALL)))[:draw(st.sampled_from([0, 1, 3, 6]))])
+                     for _ in range(nj))
+    nframe = draw(st.integers(0, 3))
+    nchan = sum(len(c) for c in channels)
+    motion = np.array(draw(st.lists(finite, min_size=nframe * nchan, max_size=nframe * nchan))).reshape(nframe, nchan)
+    offset = np.array(draw(st.lists(finite, min_size=3 * nj, max_size=3 * nj))).reshape(nj, 3)
+    end = np.array([draw(st.one_of(st.just((np.nan,) * 3), st.tuples(finite, finite, finite))) for _ in range(nj)])
+    names = tuple(f"j{k} {draw(st.sampled_from(['', 'x', 'Left']))}".strip() for k in range(nj))
+    return BvhClip(joint_names=names, joint_parent=np.array(parent), joint_offset=offset, joint_channels=channels,
+                   joint_end_site=end, frame_time=draw(st.floats(1e-3, 1.0)), motion=motion)
+
+
+CHANNEL_NAMES_ALL = ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")
+
+
+@settings(max_examples=60, deadline=None)
+@given(random_clips())
+def test_random_clips_round_trip_exactly_and_match_the_reference(clip):
+    back = parse_bvh_text(bvh_text(clip, precision=None))
+    assert back.joint_names == clip.joint_names and back.joint_channels == clip.joint_channels
+    assert back.joint_parent.tolist() == clip.joint_parent.tolist()
+    np.testing.assert_array_equal(back.joint_offset, clip.joint_offset)
+    np.testing.assert_array_equal(back.joint_end_site, clip.joint_end_site)
+    np.testing.assert_array_equal(back.motion, clip.motion)
+    assert back.frame_time == clip.frame_time
+    if clip.nframe:
+        pos, rot = clip.forward_kinematics([clip.nframe - 1])
+        ref_pos, ref_rot = slow_fk(clip, clip.nframe - 1)
+        np.testing.assert_allclose(pos[0], ref_pos, atol=1e-9 * (1 + np.abs(ref_pos).max()))
+        for j in range(clip.njoint):
+            np.testing.assert_allclose(_quat_matrix(rot[0, j]), ref_rot[j], atol=1e-9)
+    # Every random skeleton also makes a valid creature.
+    creature = creature_from_bvh(clip, scale=0.01)
+    assert creature.nbody == clip.njoint and creature.bounds[0, 2] == pytest.approx(0.0, abs=1e-12)
+    assert np.all(creature.body_extent > 0)

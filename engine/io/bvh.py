@@ -566,7 +566,10 @@ def parse_bvh_text(text: str, path: str | None = None) -> BvhClip:
     if not frame_time > 0.0:
         raise BvhError(f"frame time must be > 0, got {frame_time}", path=path, line=lineno)
 
-    motion = _parse_motion(lines, cur.i, sum(len(c) for c in channels), path)
+    nchannel = sum(len(c) for c in channels)
+    motion = _parse_motion(lines, cur.i, nchannel, path)
+    if nchannel == 0:  # no channels: frames are empty lines, so trust the header
+        motion = np.zeros((declared, 0))
     if motion.shape[0] != declared:
         warnings.warn(f"{path or 'BVH text'}: header declares {declared} frames but the file has "
                       f"{motion.shape[0]} motion lines; using the {motion.shape[0]} present",

@@ -173,7 +173,7 @@ def load_caps_table(path: str | os.PathLike) -> dict[str, list[str]]:
         table[pattern] = value
         lines[pattern] = item.line
     _compile_table(table, path_str, lines)  # validate with line numbers
-    return table
+    return {p: [c] if isinstance(c, str) else list(c) for p, c in table.items()}
 
 
 def _strip_namespace(name: str) -> str:
