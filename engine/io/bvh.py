@@ -205,12 +205,15 @@ class BvhClip:
     def _frames(self, frames) -> np.ndarray:
         if frames is None:
             return self.motion
-        return self.motion[np.atleast_1d(np.asarray(frames))]
+        if isinstance(frames, slice):
+            return self.motion[frames]
+        return self.motion[np.atleast_1d(np.asarray(frames, np.int64))]
 
     def local_rotations(self, frames=None) -> np.ndarray:
         """Local joint rotations (nf, nj, 4), w-first, in file axes.
 
-        ``frames`` selects frames (an index, a slice of indices or None for all). Each
+        ``frames`` selects frames (an index, a sequence of indices, a slice, or None for
+        all; the same in every method here). Each
         joint's Euler channels are composed intrinsically in their listed order.
         """
         values = self._frames(frames)

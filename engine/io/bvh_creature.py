@@ -293,7 +293,7 @@ def _bone_boxes(parent: np.ndarray, joint_pos: np.ndarray, end_pos: np.ndarray, 
             rot[j] = (1.0, 0.0, 0.0, 0.0)
             half[j] = np.maximum(0.5 * (hi - lo), h)
             axis[j] = (0.0, 0.0, 1.0)
-            length[j] = float(np.max(hi - lo))
+            length[j] = bone
             continue
         if not ts:
             # No length of its own: continue the parent's bone.
