@@ -454,6 +454,7 @@ class Renderer:
         while len(self._labels) < len(items):
             self._labels.append(pyglet.text.Label(
                 "", x=0, y=0, anchor_x="center", anchor_y="bottom", font_size=font_size,
+                multiline=True, width=max(int(24 * font_size), 1), align="center",
                 batch=self._label_batch))
         for i, label in enumerate(self._labels):
             if i < len(items):
@@ -463,6 +464,7 @@ class Renderer:
                     label.text = text
                 if label.font_size != font_size:
                     label.font_size = font_size
+                    label.width = max(int(24 * font_size), 1)
                 if label.color != color:
                     label.color = color
                 label.position = (round(x), round(y), 0)

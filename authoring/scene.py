@@ -632,8 +632,8 @@ def grid_spec(bounds) -> tuple[np.ndarray, float, int]:
 
 #: The zoo's camera: higher and narrower than the default, so rows of creatures recede
 #: without hiding each other and far rows are not much smaller than near ones.
-ZOO_ELEVATION = math.radians(30.0)
-ZOO_FOV_Y = math.radians(24.0)
+ZOO_ELEVATION = math.radians(34.0)
+ZOO_FOV_Y = math.radians(20.0)
 
 
 def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None = None,
@@ -651,7 +651,8 @@ def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None =
     ``normalize_size=True`` scales each creature so the largest side of its rest bounding
     box (height for upright creatures, length for a snake or a centipede) is ``size`` m,
     so a 10 m giant and a 0.1 m mite are drawn the same size; the labels give the true
-    size. ``normalize_size=False`` keeps true sizes (cells fit the largest creature).
+    size (largest side) under the name. ``normalize_size=False`` keeps true sizes (cells
+    fit the largest creature).
     ``spacing`` overrides the column spacing, m (rows scale with it).
     """
     creatures = list(creatures)
@@ -674,7 +675,7 @@ def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None =
     across = np.abs(sizes[:, 0] * right[0]) + np.abs(sizes[:, 1] * right[1])
     depth = np.abs(sizes[:, 0] * away[0]) + np.abs(sizes[:, 1] * away[1])
     tall = sizes[:, 2] * math.cos(el) + depth * math.sin(el)
-    label_room = 0.18 * float(np.max(sizes)) if labels else 0.0
+    label_room = 0.4 * float(np.max(sizes)) if labels else 0.0  # two text lines
     col_step = spacing if spacing is not None else 1.2 * max(float(across.max()),
                                                              0.6 * float(np.max(sizes)))
     if not (math.isfinite(col_step) and col_step > 0):
@@ -700,7 +701,7 @@ def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None =
         offset = cell_centre - s * np.array([foot[0], foot[1], 0.0])
         label = None
         if labels:
-            label = f"{c.name} ({_metres(float(np.max(c.size)))})" if normalize_size else c.name
+            label = f"{c.name}\n{_metres(float(np.max(c.size)))}" if normalize_size else c.name
         scene.actors.append(Actor(c, offset=offset, scale=float(s), label=label))
     return scene
 
