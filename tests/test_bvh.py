@@ -437,7 +437,7 @@ def test_jump_flight_confirms_the_cmu_unit(clips):
     t = np.arange(clip.nframe) * clip.frame_time
     edges = np.flatnonzero(np.diff(airborne.astype(int)))
     units = []
-    for a, b in zip(edges[:-1], edges[1:]):
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
         if airborne[a + 1] and b - a > 20:
             seg = slice(a + 6, b - 4)  # trim take-off and landing
             g = -2.0 * np.polyfit(t[seg], pos[seg, 0, 1], 2)[0]
@@ -542,7 +542,7 @@ def test_creature_from_every_capture(clips, name):
     # The spine is one serial chain, walked parent to child, from Hips to Head.
     chain = [creature.body_names[i] for i in creature.spine_chain]
     assert chain[0] == "Hips" and chain[-1] == "Head"
-    for a, b in zip(creature.spine_chain[:-1], creature.spine_chain[1:]):
+    for a, b in zip(creature.spine_chain[:-1], creature.spine_chain[1:], strict=True):
         assert creature.body_parent[b] == a
     # Stands on the ground at a human height (CMU actors measure 1.37-1.50 m in their
     # own unit, which the jump test confirms against gravity).
@@ -712,7 +712,7 @@ def test_scale_argument_and_defaults(clips):
     with pytest.raises(Exception, match="scale must be a positive number"):
         creature_def_from_bvh(clip, scale=-1.0)
     # The caps are as documented for the MotionBuilder-friendly naming.
-    caps = dict(zip(clip.joint_names, joint_caps(clip)))
+    caps = dict(zip(clip.joint_names, joint_caps(clip), strict=True))
     assert caps["LHipJoint"] == ["limb"] and caps["LeftToeBase"] == ["detail"]
     assert caps["LeftHand"] == ["limb", "grasper"] and caps["LThumb"] == ["detail"]
     assert caps["LeftHandIndex1"] == ["detail"] and caps["LeftFingerBase"] == ["detail"]
@@ -772,7 +772,8 @@ def test_a_jaw_takes_the_mouth_from_the_head():
     text = TINY.replace("    End Site\n    {\n      OFFSET 0 5 0\n    }",
                         "    JOINT Head\n    {\n      OFFSET 0 5 0\n      CHANNELS 0\n"
                         "      JOINT Jaw\n      {\n        OFFSET 0 0 2\n        CHANNELS 0\n      }\n    }")
-    caps = dict(zip(parse_bvh_text(text).joint_names, joint_caps(parse_bvh_text(text))))
+    clip = parse_bvh_text(text)
+    caps = dict(zip(clip.joint_names, joint_caps(clip), strict=True))
     assert caps["Head"] == ["spine", "head"] and caps["Jaw"] == ["mouth"]
 
 

@@ -198,7 +198,7 @@ class BvhClip:
 
     def channel_names(self) -> list[str]:
         """``'<joint>.<channel>'`` for every motion column."""
-        return [f"{n}.{c}" for n, chans in zip(self.joint_names, self.joint_channels) for c in chans]
+        return [f"{n}.{c}" for n, chans in zip(self.joint_names, self.joint_channels, strict=True) for c in chans]
 
     # -- per-frame local transforms ----------------------------------------------------
 

@@ -330,7 +330,7 @@ def _bone_boxes(parent: np.ndarray, joint_pos: np.ndarray, end_pos: np.ndarray, 
 
 def _box_min_z(centre: np.ndarray, rot: np.ndarray, half: np.ndarray) -> float:
     lowest = np.inf
-    for c, q, h in zip(centre, rot, half):
+    for c, q, h in zip(centre, rot, half, strict=True):
         # The lowest corner of a box: its centre minus the sum of |world z| of each half axis.
         axes = np.array([_rotate(q, np.eye(3)[k]) * h[k] for k in range(3)])
         lowest = min(lowest, c[2] - float(np.abs(axes[:, 2]).sum()))
