@@ -26,7 +26,6 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 POS_DECIMALS = 5   # 0.01 mm: plenty for a 0.1 m creature, exact mirror images survive rounding
-ROT_DECIMALS = 9   # keeps |q| within 1e-8 of 1, so the builder normalises silently
 
 
 # -- small vector helpers ----------------------------------------------------------------
@@ -59,6 +58,32 @@ def quat_between(a, b):
     b = np.asarray(b, float) / np.linalg.norm(b)
     q = np.array([1.0 + a @ b, *np.cross(a, b)])
     return q / np.linalg.norm(q)
+
+
+def exact_unit(q):
+    """``q`` scaled so that ``np.linalg.norm`` of it is exactly 1.0 in floating point.
+
+    The builder divides every rotation by its norm; a quaternion whose computed norm is
+    exactly 1.0 passes through unchanged, so a file's rotations survive load -> save ->
+    load bit for bit. Normalising again usually gets there; otherwise the largest
+    component is nudged by a few ulps (magnitude only, so mirror images stay exact)."""
+    q = np.asarray(q, float) / np.linalg.norm(q)
+    for _ in range(8):
+        n = np.linalg.norm(q)
+        if n == 1.0:
+            return q
+        q = q / n
+    k = int(np.argmax(np.abs(q)))
+    for steps in range(1, 200):
+        for direction in (0.0, 2.0):
+            t = q.copy()
+            mag = abs(t[k])
+            for _ in range(steps):
+                mag = np.nextafter(mag, direction)
+            t[k] = math.copysign(mag, q[k])
+            if np.linalg.norm(t) == 1.0:
+                return t
+    raise ValueError(f"no exactly-unit representation found for {q}")
 
 
 def quat_yaw(deg):
@@ -284,8 +309,10 @@ class Maker:
                 lines.append(f"    parent: {b.parent}")
             lines.append("    caps: [" + ", ".join(b.caps) + "]")
             lines.append(f"    pos: {vec(b.pos)}")
-            if not np.allclose(b.rot, (1, 0, 0, 0), atol=0.5 * 10.0 ** -ROT_DECIMALS):
-                lines.append(f"    rot: {vec(b.rot, ROT_DECIMALS)}")
+            if not np.allclose(b.rot, (1, 0, 0, 0), atol=1e-12):
+                q = exact_unit(b.rot)
+                lines.append("    rot: [" + ", ".join(repr(0.0 if x == 0.0 else float(x))
+                                                     for x in q) + "]")
             if b.parent is not None and b.joint is not None:
                 lines.append(f"    joint: {vec(b.joint)}")
             lines.append(f"    extents: {vec(b.ext)}")
@@ -644,7 +671,7 @@ def centipede():
         # Each leg: a femur rising outwards, then a foot segment down to the ground.
         x = 0.5 * (xs[i] + xs[i + 1])
         yaw = 10 - 20 * i / (n - 1)
-        hip = v(x, 0.03, z - 0.005)
+        hip = v(x, 0.8 * c[f"trunk{i + 1}"].ext[1], z - 0.005)
         knee = hip + rot_z(yaw, v(0.0, 0.05, 0.0)) + v(0, 0, 0.012)
         tip = hip + rot_z(yaw, v(0.0, 0.1, 0.0))
         c.seg(f"leg{i + 1}_l", f"trunk{i + 1}", ["limb"], hip, knee, 0.004)
@@ -912,7 +939,7 @@ def hopper():
     c.leg(["thigh", "shin", "metatarsus", "foot"], "pelvis", v(0, 0, 0.72),
           [(0, 0, 0), (0.22, 0, -0.4), (-0.08, 0, -0.8), (0.0, 0, -1)], [0.08, 0.06, 0.045],
           (0.16, 0.08, 0.04), 0.08)
-    c.seg("torso", "pelvis", ["spine"], v(0, 0, 0.9), v(0.04, 0, 1.2), (0.17, 0.12))
+    c.seg("torso", "pelvis", ["spine"], v(0, 0, 0.9), v(0.04, 0, 1.2), (0.12, 0.17))
     c.seg("head", "torso", ["spine", "head"], v(0.04, 0, 1.2), v(0.08, 0, 1.4), (0.1, 0.09))
     face(c, "head", mouth=(0.02, 0.04, 0.015), eyes=(0.015, 0.015, 0.015),
          eye_rel=(0.9, 0.5, 0.3), mouth_rel=(1.0, 0.0, -0.3))
@@ -928,7 +955,7 @@ def forkstrider():
     c = Maker("forkstrider", "A biped whose legs branch: each thigh forks at the knee into a "
               "front shin and a back shin, each ending in a foot (four feet, two hips).")
     c.add("pelvis", None, ["spine"], (0, 0, 1.05), (0.13, 0.2, 0.1))
-    c.seg("chest", "pelvis", ["spine"], v(0, 0, 1.15), v(0.02, 0, 1.6), (0.16, 0.12))
+    c.seg("chest", "pelvis", ["spine"], v(0, 0, 1.15), v(0.02, 0, 1.6), (0.12, 0.17))
     c.seg("head", "chest", ["spine", "head"], v(0.02, 0, 1.6), v(0.1, 0, 1.84), (0.1, 0.09))
     face(c, "head", mouth=(0.02, 0.04, 0.015), eyes=(0.015, 0.015, 0.015),
          eye_rel=(0.9, 0.5, 0.3), mouth_rel=(1.0, 0.0, -0.3))
@@ -954,10 +981,10 @@ def maw():
     spine_line(c, ["middle", "front"], "rump", [v(-0.25, 0, z), v(0.05, 0, z + 0.02),
                                                  v(0.35, 0, z)], [(0.3, 0.32), (0.28, 0.3)])
     c.on("mouth", "front", ["mouth"], (1.0, 0.0, -0.1), (0.04, 0.22, 0.12), push=(0.04, 0, 0))
-    c.seg("eyestalk_l", "middle", ["limb"], v(0.1, 0.15, z + 0.3), v(0.25, 0.25, z + 0.55),
+    c.seg("eyestalk_l", "middle", ["limb"], v(-0.02, 0.15, z + 0.3), v(0.13, 0.25, z + 0.55),
           0.02)
-    c.add("eye_l", "eyestalk_l", ["eye"], (0.27, 0.265, z + 0.58), (0.04, 0.04, 0.04),
-          joint=(0.25, 0.25, z + 0.55))
+    c.add("eye_l", "eyestalk_l", ["eye"], (0.15, 0.265, z + 0.58), (0.04, 0.04, 0.04),
+          joint=(0.13, 0.25, z + 0.55))
     for i, x in enumerate(xs[:3]):
         body = ("rump", "middle", "front")[i] if i else "rump"
         c.on(f"spike{i + 1}", body, ["spike"], (0.0, 0, 1.0), (0.04, 0.03, 0.09),
@@ -1028,7 +1055,7 @@ def crawler():
 def mixedlegs():
     c = Maker("mixedlegs", "A six-legged stalker with a sloping back: two short front legs "
               "and four long rear legs (leg lengths differ by more than 2x).")
-    pts = [v(-0.65, 0, 1.05), v(-0.3, 0, 0.92), v(0.05, 0, 0.72), v(0.35, 0, 0.5)]
+    pts = [v(-0.65, 0, 1.05), v(-0.3, 0, 0.95), v(0.05, 0, 0.8), v(0.35, 0, 0.45)]
     c.seg("rear", None, ["spine"], pts[0], pts[1], (0.18, 0.12), axis=0)
     c["rear"].joint = None
     c.seg("middle", "rear", ["spine"], pts[1], pts[2], (0.2, 0.14), axis=0)
@@ -1041,8 +1068,8 @@ def mixedlegs():
     c.leg(["rearthigh_l", "rearshin_l", "rearshank_l", "rearfoot_l"], "rear",
           v(-0.55, 0.15, 0.93), long_profile, [0.07, 0.05, 0.04], (0.09, 0.06, 0.035), 0.04)
     c.leg(["midthigh_l", "midshin_l", "midshank_l", "midfoot_l"], "middle",
-          v(-0.15, 0.17, 0.72), long_profile, [0.07, 0.05, 0.04], (0.09, 0.06, 0.035), 0.04)
-    c.leg(["frontthigh_l", "frontshin_l", "frontfoot_l"], "front", v(0.22, 0.15, 0.45),
+          v(-0.15, 0.17, 0.8), long_profile, [0.07, 0.05, 0.04], (0.09, 0.06, 0.035), 0.04)
+    c.leg(["frontthigh_l", "frontshin_l", "frontfoot_l"], "front", v(0.22, 0.15, 0.42),
           [(0, 0, 0), (-0.1, 0.15, -0.5), (0.05, 0.2, -1)], [0.06, 0.045], (0.08, 0.05, 0.03),
           0.04)
     c.mirror()
@@ -1069,7 +1096,9 @@ def kangaroo():
     c.leg(["thigh_l", "shin_l", "foot_l"], "pelvis", v(-0.02, 0.11, 0.62),
           [(0, 0, 0), (0.35, 0, -0.35), (-0.2, 0, -1)], [0.08, 0.045], (0.17, 0.045, 0.025),
           0.08)
-    tail_chain(c, "pelvis", v(-0.12, 0, 0.58), 5, 1.0, [55, 50, 40, 20, 5], (0.07, 0.03))
+    pelvis = c["pelvis"]   # the tail leaves the back of the tilted pelvis box
+    base = pelvis.pos + qrot(pelvis.rot, v(-0.8 * pelvis.ext[0], 0, -0.6 * pelvis.ext[2]))
+    tail_chain(c, "pelvis", base, 5, 1.0, [55, 50, 40, 20, 5], (0.07, 0.03))
     c.mirror()
     return c
 
@@ -1083,7 +1112,7 @@ def gorilla():
     c.seg("belly", "pelvis", ["spine"], v(-0.16, 0, 0.85), v(0.0, 0, 1.05), (0.12, 0.22),
           axis=2)
     c.seg("chest", "belly", ["spine"], v(0.0, 0, 1.05), v(0.2, 0, 1.22), (0.14, 0.27), axis=2)
-    c.seg("head", "chest", ["head"], v(0.24, 0, 1.25), v(0.44, 0, 1.28), (0.11, 0.12), axis=0)
+    c.seg("head", "chest", ["head"], v(0.2, 0, 1.22), v(0.42, 0, 1.27), (0.11, 0.12), axis=0)
     face(c, "head", mouth=(0.03, 0.05, 0.03), eyes=(0.015, 0.015, 0.015),
          eye_rel=(0.9, 0.45, 0.4), mouth_rel=(1.0, 0.0, -0.5))
     c.seg("clavicle_l", "chest", ["limb"], v(0.14, 0.05, 1.17), v(0.14, 0.3, 1.15), 0.05)
@@ -1161,7 +1190,7 @@ def minimal():
     c = Maker("minimal", "The smallest biped that still has every part the gaits need: "
               "eight bodies (pelvis, chest, head, one eye, two thighs, two feet).")
     c.add("pelvis", None, ["spine"], (0, 0, 0.62), (0.1, 0.15, 0.08))
-    c.seg("chest", "pelvis", ["spine"], v(0, 0, 0.7), v(0, 0, 1.0), (0.13, 0.11))
+    c.seg("chest", "pelvis", ["spine"], v(0, 0, 0.7), v(0, 0, 1.0), (0.1, 0.13))
     c.add("head", "chest", ["spine", "head", "mouth"], (0.03, 0, 1.12), (0.11, 0.1, 0.12),
           joint=(0, 0, 1.0))
     c.on("eye", "head", ["eye"], (1.0, 0.0, 0.35), (0.02, 0.04, 0.03), push=(0.02, 0, 0))
@@ -1224,7 +1253,7 @@ def trex():
         tpts.append(tpts[-1] + v(-dx, 0, dz))
     spine_line(c, [f"tail{i + 1}" for i in range(6)], "pelvis", tpts,
                [(0.32 - 0.045 * i, 0.38 - 0.055 * i) for i in range(6)], caps=("spine", "tail"))
-    c.leg(["thigh_l", "shin_l", "metatarsus_l", "foot_l"], "pelvis", v(0.1, 0.42, z - 0.2),
+    c.leg(["thigh_l", "shin_l", "metatarsus_l", "foot_l"], "pelvis", v(0.1, 0.33, z - 0.2),
           [(0, 0, 0), (0.25, 0.02, -0.4), (-0.08, 0.03, -0.8), (0.0, 0.03, -1)],
           [0.3, 0.2, 0.13], (0.45, 0.2, 0.1), 0.25)
     arm(c, "chest", ["arm_l", "hand_l"], v(1.65, 0.3, z - 0.1),
