@@ -209,3 +209,23 @@ def frame_transport(points, tangent0, rot0):
         rots.append(rot)
         prev = cur
     return np.array(rots)
+
+
+def spline_frame_transport(ends0, ends1, params, rot0, substeps):
+    """Transport along a quintic Hermite with tangents from the coefficient polynomial,
+    as a plain loop of Rodrigues steps."""
+    rot = np.asarray(rot0, dtype=float)
+    prev = np.asarray(ends0[1], dtype=float)
+    t_prev = 0.0
+    points, rots = [], []
+    for t_next in params:
+        for s in range(1, substeps + 1):
+            t = t_prev + (t_next - t_prev) * s / substeps
+            cur = hermite(ends0, ends1, t, 1)
+            if np.linalg.norm(np.cross(prev, cur)) > 1e-15 * np.linalg.norm(prev) * np.linalg.norm(cur):
+                rot = quat_mul(quat_between(prev, cur), rot)
+            prev = cur
+        points.append(hermite(ends0, ends1, t_next))
+        rots.append(rot)
+        t_prev = t_next
+    return np.array(points), np.array(rots)

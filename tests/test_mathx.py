@@ -21,9 +21,10 @@ from numba import njit
 from numba.core.runtime import _nrt_python, rtsys
 
 import engine.mathx as mx
+
 try:
-    import naive_mathx as naive          # tests/ on sys.path (pytest's default rootdir mode)
-except ImportError:                      # tests/ imported as a package
+    import naive_mathx as naive  # tests/ on sys.path (pytest's default rootdir mode)
+except ImportError:  # tests/ imported as a package
     from tests import naive_mathx as naive
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
@@ -93,6 +94,19 @@ DEGENERATE = [
      np.array([EX, ZERO3, EX, ZERO3])),
     ("tangents of a single key", lambda: mx.auto_tangents(np.zeros(1), np.ones((1, 2))),
      np.zeros((1, 2))),
+    ("matrix with NaN", lambda: mx.quat_from_matrix(np.full((3, 3), np.nan)), IDENTITY),
+    ("zero matrix", lambda: mx.quat_from_matrix(np.zeros((3, 3))), IDENTITY),
+    ("rotvec with NaN", lambda: mx.quat_from_rotvec(np.full(3, np.nan)), IDENTITY),
+    ("rotvec overflowing", lambda: mx.quat_from_rotvec(np.full(3, 1e200)), IDENTITY),
+    ("axis-angle NaN angle", lambda: mx.quat_from_axis_angle(EX, np.nan), IDENTITY),
+    ("axis-angle of NaN quaternion",
+     lambda: np.concatenate([*mx.quat_to_axis_angle(NAN4)[:1], [mx.quat_to_axis_angle(NAN4)[1]]]),
+     np.array([1.0, 0.0, 0.0, 0.0])),
+    ("slerp of zero quaternions", lambda: mx.quat_slerp(ZERO4, ZERO4, 0.5), IDENTITY),
+    ("spline transport, zero spline keeps the frame",
+     lambda: mx.spline_frame_transport(ZERO3, ZERO3, ZERO3, ZERO3, ZERO3, ZERO3,
+                                       np.array([0.5, 1.0]), np.array([0.0, 1, 0, 0]), 3)[1],
+     np.array([[0.0, 1, 0, 0], [0.0, 1, 0, 0]])),
     ("keyed curve with a single key",
      lambda: mx.hermite3_keys(np.zeros(1), np.array([[2.0, 3.0]]), np.zeros((1, 2)), 5.0),
      np.array([2.0, 3.0])),
@@ -145,7 +159,7 @@ def rng():
 
 def test_mul_conj_inv_dot(rng):
     qa, qb = unit_quats(rng, 50), 2.0 * unit_quats(rng, 50)
-    for a, b in zip(qa, qb):
+    for a, b in zip(qa, qb, strict=True):
         np.testing.assert_allclose(mx.quat_mul(a, b), naive.quat_mul(a, b), atol=1e-14)
         np.testing.assert_array_equal(mx.quat_conj(b), naive.quat_conj(b))
         np.testing.assert_allclose(mx.quat_mul(b, mx.quat_inv(b)), IDENTITY, atol=1e-14)
@@ -228,7 +242,7 @@ def test_rotvec_stable_near_zero():
 
 def test_slerp_nlerp(rng):
     qa, qb = unit_quats(rng, 30), unit_quats(rng, 30)
-    for a, b in zip(qa, qb):
+    for a, b in zip(qa, qb, strict=True):
         for t in [0.0, 0.25, 0.5, 0.9, 1.0, -0.3, 1.4]:
             got = mx.quat_slerp(a, b, t)
             assert same_rotation(got, naive.quat_slerp(a, b, t), atol=1e-12)
@@ -244,7 +258,7 @@ def test_slerp_nlerp(rng):
 
 
 def test_slerp_endpoints_and_antipodes(rng):
-    for a, b in zip(unit_quats(rng, 20), unit_quats(rng, 20)):
+    for a, b in zip(unit_quats(rng, 20), unit_quats(rng, 20), strict=True):
         np.testing.assert_allclose(mx.quat_slerp(a, b, 0.0), a, atol=1e-15)
         assert same_rotation(mx.quat_slerp(a, b, 1.0), b, atol=1e-15)
         # q and -q are the same rotation: slerp toward -b is slerp toward b.
@@ -330,7 +344,7 @@ def test_swing_twist(rng):
 
 
 def test_quat_angle(rng):
-    for a, b in zip(unit_quats(rng, 30), unit_quats(rng, 30)):
+    for a, b in zip(unit_quats(rng, 30), unit_quats(rng, 30), strict=True):
         angle = mx.quat_angle(a, b)
         assert 0.0 <= angle <= math.pi
         assert angle == pytest.approx(naive.rotation_angle(a, b), abs=1e-7)
@@ -346,10 +360,10 @@ def test_batch_helpers(rng):
     a, b = unit_quats(rng, 7), unit_quats(rng, 7)
     v = rng.normal(size=(7, 3))
     np.testing.assert_allclose(mx.quat_mul_batch(a, b),
-                               np.array([naive.quat_mul(x, y) for x, y in zip(a, b)]),
+                               np.array([naive.quat_mul(x, y) for x, y in zip(a, b, strict=True)]),
                                atol=1e-14)
     np.testing.assert_allclose(mx.quat_rotate_batch(a, v),
-                               np.array([naive.quat_rotate(x, y) for x, y in zip(a, v)]),
+                               np.array([naive.quat_rotate(x, y) for x, y in zip(a, v, strict=True)]),
                                atol=1e-12)
     assert mx.quat_mul_batch(a[:0], b[:0]).shape == (0, 4)
 
@@ -430,6 +444,81 @@ def test_frame_transport_repeated_points_skip():
                                   [1.0, 1.0, 0.0])
 
 
+def _quintic_ends(rng):
+    return [rng.normal(size=3) for _ in range(3)], [rng.normal(size=3) for _ in range(3)]
+
+
+def test_spline_frame_transport_against_reference(rng):
+    ends0, ends1 = _quintic_ends(rng)
+    params = np.array([0.1, 0.35, 0.5, 0.8, 1.0])
+    rot0 = unit_quats(rng, 1)[0]
+    for substeps in [1, 5]:
+        points, rots = mx.spline_frame_transport(*ends0, *ends1, params, rot0, substeps)
+        ref_points, ref_rots = naive.spline_frame_transport(ends0, ends1, params, rot0,
+                                                            substeps)
+        np.testing.assert_allclose(points, ref_points, atol=1e-12)
+        np.testing.assert_allclose(rots, ref_rots, atol=1e-12)
+        # The axis rot0 put on the tangent stays on the tangent.
+        local_axis = mx.quat_rotate_inv(rot0, ends0[1] / np.linalg.norm(ends0[1]))
+        for t, rot in zip(params, rots, strict=True):
+            tangent = mx.hermite5_deriv(*ends0, *ends1, t)
+            np.testing.assert_allclose(mx.quat_rotate(rot, local_axis),
+                                       tangent / np.linalg.norm(tangent), atol=1e-12)
+
+
+def test_spline_frame_transport_straight_planar_and_converging(rng):
+    rot0 = unit_quats(rng, 1)[0]
+    params = np.linspace(0.0, 1.0, 6)
+    # A straight spline keeps the frame; its points lie on the segment.
+    p0, p1 = rng.normal(size=(2, 3))
+    points, rots = mx.spline_frame_transport(p0, p1 - p0, ZERO3, p1, p1 - p0, ZERO3, params,
+                                             rot0, 4)
+    np.testing.assert_allclose(rots, np.tile(rot0, (6, 1)), atol=1e-15)
+    np.testing.assert_allclose(points, p0 + np.outer(params, p1 - p0), atol=1e-14)
+    # A planar spline: each frame is rot0 turned about the plane normal by the tangent's
+    # turn angle, whatever the step count (while no step turns past a half turn).
+    ends = [np.concatenate([rng.normal(size=2), [0.0]]) for _ in range(6)]
+    ends[1] = np.array([1.0, 0.0, 0.0])
+    ends[4] = np.array([1.0, 0.5, 0.0])
+    for substeps in [1, 7]:
+        _, rots = mx.spline_frame_transport(*ends, params, rot0, substeps)
+        angle = 0.0
+        tangent_prev = ends[1]
+        t_prev = 0.0
+        for t, rot in zip(params, rots, strict=True):
+            for s in range(1, 200 + 1):   # unwrap the tangent angle finely
+                tangent = mx.hermite5_deriv(*ends, t_prev + (t - t_prev) * s / 200)
+                angle += math.atan2(np.cross(tangent_prev, tangent)[2],
+                                    np.dot(tangent_prev, tangent))
+                tangent_prev = tangent
+            t_prev = t
+            expected = mx.quat_mul(mx.quat_from_axis_angle(EZ, angle), rot0)
+            assert same_rotation(rot, expected, atol=1e-10)
+    # A twisted spline: the discrete transport converges as the step count grows.
+    ends0, ends1 = _quintic_ends(rng)
+    last = [mx.spline_frame_transport(*ends0, *ends1, params, rot0, k)[1][-1]
+            for k in (16, 64, 256)]
+    coarse, fine = mx.quat_angle(last[0], last[2]), mx.quat_angle(last[1], last[2])
+    assert fine < coarse / 8 + 1e-12
+
+
+def test_mirror_sagittal(rng):
+    mirror = np.diag([1.0, -1.0, 1.0])
+    for q in unit_quats(rng, 10):
+        mq = mx.quat_mirror_sagittal(q)
+        np.testing.assert_allclose(mx.quat_to_matrix(mq),
+                                   mirror @ naive.quat_to_matrix(q) @ mirror, atol=1e-13)
+        v = rng.normal(size=3)
+        np.testing.assert_allclose(mx.quat_rotate(mq, mirror @ v),
+                                   mirror @ mx.quat_rotate(q, v), atol=1e-13)
+        np.testing.assert_array_equal(mx.quat_mirror_sagittal(mq), q)
+    # Yaw to the left (about +Z) mirrors to yaw to the right; pitch (about Y) is kept.
+    yaw = mx.quat_from_axis_angle(EZ, 0.4)
+    np.testing.assert_allclose(mx.quat_mirror_sagittal(yaw), mx.quat_from_axis_angle(EZ, -0.4))
+    pitch = mx.quat_from_axis_angle(EY, 0.4)
+    np.testing.assert_array_equal(mx.quat_mirror_sagittal(pitch), pitch)
+
+
 # ---------------------------------------------------------------------------------------
 # Splines
 # ---------------------------------------------------------------------------------------
@@ -484,7 +573,7 @@ def test_fit_hermite5_recovers_a_known_quintic(rng):
         params = np.sort(rng.uniform(0.05, 0.95, size=m))
         points = np.array([mx.hermite5(p0, v0, a0, p1, v1, a1, t) for t in params])
         got = mx.fit_hermite5(points, params, p0, p1)
-        for fitted, true in zip(got, [v0, a0, v1, a1]):
+        for fitted, true in zip(got, [v0, a0, v1, a1], strict=True):
             np.testing.assert_allclose(fitted, true, atol=1e-7)
 
 
@@ -510,7 +599,7 @@ def test_fit_hermite5_under_determined(rng):
         # Minimum-norm correction to the straight segment: numpy's lstsq agrees ...
         np.testing.assert_allclose(got, naive.fit_hermite5(points, params, p0, p1), atol=1e-9)
         # ... and with fewer samples than unknowns the curve passes through every sample.
-        for t, point in zip(params, points):
+        for t, point in zip(params, points, strict=True):
             np.testing.assert_allclose(mx.hermite5(p0, got[0], got[1], p1, got[2], got[3], t),
                                        point, atol=1e-9)
     # Four samples at only two distinct params are rank-deficient too.
@@ -633,6 +722,17 @@ def _twin_cases():
         (mx.hermite3_keys, mx.hermite3_keys_into, (times, values, values, 0.7), (2,)),
         (lambda *args: np.array(mx.fit_hermite5(*args)), mx.fit_hermite5_into,
          (samples, params, u, v), (4, 3)),
+        (mx.quat_mirror_sagittal, mx.quat_mirror_sagittal_into, (a,), (4,)),
+        (lambda *args: mx.quat_swing_twist(*args)[0],
+         lambda q, ax, out: mx.quat_swing_twist_into(q, ax, out, np.empty(4))[0], (a, u), (4,)),
+        (lambda *args: mx.quat_swing_twist(*args)[1],
+         lambda q, ax, out: mx.quat_swing_twist_into(q, ax, np.empty(4), out)[1], (a, u), (4,)),
+        (lambda *args: mx.spline_frame_transport(*args)[1],
+         lambda *args: mx.spline_frame_transport_into(*args[:-1], np.empty((5, 3)), args[-1])[1],
+         h5 + (params, a, 3), (5, 4)),
+        (lambda *args: mx.spline_frame_transport(*args)[0],
+         lambda *args: mx.spline_frame_transport_into(*args[:-1], args[-1], np.empty((5, 4)))[0],
+         h5 + (params, a, 3), (5, 3)),
         (lambda p, q0, t0: mx.frame_transport(p, t0, q0),
          lambda p, q0, t0, out: mx.frame_transport_into(p, q0, out, t0), (pts, a, u), (6, 4)),
     ]
@@ -717,6 +817,8 @@ def _hot_path(n, a, b, u, v, qs, w, pts, times, values, p0, m0, p1, m1, a0, a1,
         mx.hermite5_deriv_into(p0, m0, a0, p1, m1, a1, 0.4, v_out)
         mx.hermite5_deriv2_into(p0, m0, a0, p1, m1, a1, 0.4, v_out)
         mx.hermite3_keys_into(times, values, values, 0.7, v_out)
+        mx.spline_frame_transport_into(p0, m0, a0, p1, m1, a1, times, a, 3, pts, rots_out[:3])
+        mx.quat_mirror_sagittal_into(a, q_out)
         mx.quat_dot(a, b)
         mx.quat_angle(a, b)
 

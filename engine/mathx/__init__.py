@@ -3,6 +3,15 @@ cubic and quintic Hermite splines. Every function is ``@njit(cache=True)`` (floa
 callable from Python and from other kernels; array-returning functions have
 allocation-free ``_into`` twins for per-frame code."""
 
+from engine.mathx.frames import (
+    frame_transport,
+    frame_transport_into,
+    minimal_twist_rotate,
+    minimal_twist_rotate_into,
+    polyline_tangent_into,
+    spline_frame_transport,
+    spline_frame_transport_into,
+)
 from engine.mathx.quat import (
     mat4_from_pose,
     mat4_from_pose_into,
@@ -22,6 +31,8 @@ from engine.mathx.quat import (
     quat_from_rotvec_into,
     quat_inv,
     quat_inv_into,
+    quat_mirror_sagittal,
+    quat_mirror_sagittal_into,
     quat_mul,
     quat_mul_batch,
     quat_mul_batch_into,
@@ -45,13 +56,6 @@ from engine.mathx.quat import (
     quat_to_matrix_into,
     quat_to_rotvec,
     quat_to_rotvec_into,
-)
-from engine.mathx.frames import (
-    frame_transport,
-    frame_transport_into,
-    minimal_twist_rotate,
-    minimal_twist_rotate_into,
-    polyline_tangent_into,
 )
 from engine.mathx.spline import (
     auto_tangents,
@@ -85,3 +89,27 @@ from engine.mathx.spline import (
     hermite5_into,
     natural_end_tangent,
 )
+
+__all__ = [
+    "auto_tangents", "auto_tangents_into", "find_segment", "fit_hermite5", "fit_hermite5_into",
+    "frame_transport", "frame_transport_into", "hermite3", "hermite3_basis",
+    "hermite3_basis_deriv", "hermite3_basis_deriv_into", "hermite3_basis_into",
+    "hermite3_deriv", "hermite3_deriv_into", "hermite3_into", "hermite3_keys",
+    "hermite3_keys_into", "hermite3_scalar", "hermite3_scalar_deriv", "hermite5",
+    "hermite5_basis", "hermite5_basis_deriv", "hermite5_basis_deriv2",
+    "hermite5_basis_deriv2_into", "hermite5_basis_deriv_into", "hermite5_basis_into",
+    "hermite5_deriv", "hermite5_deriv2", "hermite5_deriv2_into", "hermite5_deriv_into",
+    "hermite5_into", "mat4_from_pose", "mat4_from_pose_into", "minimal_twist_rotate",
+    "minimal_twist_rotate_into", "natural_end_tangent", "polyline_tangent_into", "quat_angle",
+    "quat_between", "quat_between_into", "quat_blend", "quat_blend_into", "quat_conj",
+    "quat_conj_into", "quat_dot", "quat_from_axis_angle", "quat_from_axis_angle_into",
+    "quat_from_matrix", "quat_from_matrix_into", "quat_from_rotvec", "quat_from_rotvec_into",
+    "quat_inv", "quat_inv_into", "quat_mirror_sagittal", "quat_mirror_sagittal_into",
+    "quat_mul", "quat_mul_batch", "quat_mul_batch_into", "quat_mul_into", "quat_nlerp",
+    "quat_nlerp_into", "quat_normalize", "quat_normalize_into", "quat_rotate",
+    "quat_rotate_batch", "quat_rotate_batch_into", "quat_rotate_into", "quat_rotate_inv",
+    "quat_rotate_inv_into", "quat_slerp", "quat_slerp_into", "quat_swing_twist",
+    "quat_swing_twist_into", "quat_to_axis_angle", "quat_to_matrix", "quat_to_matrix_into",
+    "quat_to_rotvec", "quat_to_rotvec_into", "spline_frame_transport",
+    "spline_frame_transport_into",
+]

@@ -300,10 +300,10 @@ def quat_blend(qs, weights):
 @njit(cache=True)
 def quat_from_axis_angle_into(axis, angle, out):
     """out = rotation by angle (rad, right-handed) about axis; the axis need not be unit,
-    a zero axis gives the identity."""
+    a zero or non-finite axis, or a non-finite angle, gives the identity."""
     x, y, z = axis[0], axis[1], axis[2]
     n = math.sqrt(x * x + y * y + z * z)
-    if not (n > 0.0 and n < np.inf):
+    if not (n > 0.0 and n < np.inf and math.isfinite(angle)):
         return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
     h = 0.5 * angle
     s = math.sin(h) / n
@@ -347,10 +347,13 @@ def quat_to_axis_angle(q):
 @njit(cache=True)
 def quat_from_rotvec_into(r, out):
     """out = exp(r / 2): the rotation by |r| rad about r. Stable near r = 0 (Taylor series
-    of sin(|r|/2)/|r| below 1e-3 rad)."""
+    of sin(|r|/2)/|r| below 1e-3 rad). A non-finite r (or |r| > 1e154) gives the
+    identity."""
     x, y, z = r[0], r[1], r[2]
     theta2 = x * x + y * y + z * z
     theta = math.sqrt(theta2)
+    if not (theta < np.inf):
+        return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
     if theta < _ROTVEC_SERIES:
         # sin(theta/2)/theta = 1/2 - theta^2/48 + theta^4/3840 - ...
         k = 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
@@ -623,6 +626,30 @@ def quat_angle(a, b):
     if aw * bw + ax * bx + ay * by + az * bz < 0.0:
         bw, bx, by, bz = -bw, -bx, -by, -bz
     return 2.0 * _half_angle_between(aw, ax, ay, az, bw, bx, by, bz)
+
+
+# ---------------------------------------------------------------------------------------
+# Sagittal mirroring (DESIGN.md: mirroring negates Y and mirrors rotations to match)
+# ---------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def quat_mirror_sagittal_into(q, out):
+    """out = q mirrored through the sagittal (XZ) plane: with M = diag(1, -1, 1), the
+    rotation M R M, which is (w, -x, y, -z). Mirroring a pose negates Y of positions and
+    maps each rotation this way, so mirrored bodies turn as the mirror image of the
+    originals (a left arm raised forward becomes a right arm raised forward)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    out[0] = w
+    out[1] = -x
+    out[2] = y
+    out[3] = -z
+    return out
+
+
+@njit(cache=True)
+def quat_mirror_sagittal(q):
+    """q mirrored through the sagittal (XZ) plane, (w, -x, y, -z), a new (4,) array."""
+    return quat_mirror_sagittal_into(q, np.empty(4))
 
 
 # ---------------------------------------------------------------------------------------
