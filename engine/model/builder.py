@@ -54,9 +54,17 @@ def _qconj(q: np.ndarray) -> np.ndarray:
 
 
 def _qrot(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    u = q[1:]
-    t = 2.0 * np.cross(u, v)
-    return v + q[0] * t + np.cross(u, t)
+    """Rotate v by q; q (..., 4) and v (..., 3) broadcast. v' = v + w t + u x t, t = 2 u x v."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return np.stack([vx + w * tx + (y * tz - z * ty),
+                     vy + w * ty + (z * tx - x * tz),
+                     vz + w * tz + (x * ty - y * tx)], axis=-1)
 
 
 def _qcanon(q: np.ndarray) -> np.ndarray:
@@ -398,11 +406,8 @@ def _order_spine(parent: np.ndarray, is_spine: np.ndarray, pos: np.ndarray) -> n
 def _box_corners(pos: np.ndarray, rot: np.ndarray, extent: np.ndarray) -> np.ndarray:
     """The 8 corners of every body box in character space, shape (n, 8, 3)."""
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
-    out = np.empty((len(pos), 8, 3))
-    for i in range(len(pos)):
-        for k in range(8):
-            out[i, k] = pos[i] + _qrot(rot[i], signs[k] * extent[i])
-    return out
+    local = signs[None, :, :] * extent[:, None, :]
+    return pos[:, None, :] + _qrot(rot[:, None, :], local)
 
 
 def _spine_component(start: int, adjacency, is_spine) -> set[int]:

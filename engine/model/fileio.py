@@ -73,9 +73,13 @@ class _LocatedError(Exception):
         self.line = line
 
 
+#: libyaml's loader when PyYAML was built with it (ten times faster), else the pure one.
+_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
 def read_yaml_located(text: str, path: str | None, error: type = CreatureError) -> _Located:
     """Parse YAML text into _Located values; syntax errors become ``error`` with the line."""
-    loader = yaml.SafeLoader(text)
+    loader = _Loader(text)
     try:
         node = loader.get_single_node()
         if node is None:
