@@ -27,8 +27,12 @@ from authoring._kernels import (
 )
 
 #: Kinds of draw ranges; the renderer picks GL state by kind.
-GRID, FACES, EDGES, LINKS, OVERLAY_LINES, JOINTS, OVERLAY_POINTS = (
-    "grid", "faces", "edges", "links", "overlay_lines", "joints", "overlay_points")
+GRID, SHADOWS, FACES, EDGES, LINKS, OVERLAY_LINES, JOINTS, OVERLAY_POINTS = (
+    "grid", "shadows", "faces", "edges", "links", "overlay_lines", "joints", "overlay_points")
+
+#: Ground shadows: each box's faces flattened onto z = 0 (light straight above), drawn in
+#: this colour; the renderer darkens every pixel at most once however many overlap.
+SHADOW_RGBA = (0.0, 0.0, 0.05, 0.16)
 
 #: Joint marker size (pixels at 720 rows) and link width.
 JOINT_SIZE = 6.0
@@ -83,6 +87,10 @@ class SceneGeometry:
                 return
         self.ranges.append(DrawRange(kind, mode, first, count, width))
 
+    @staticmethod
+    def _scene_extent(scene, bounds) -> np.ndarray:
+        return _scene_extent_of(scene.bounds() if bounds is None else bounds)
+
     # -- build ---------------------------------------------------------------------------------
 
     def build(self, scene: sc.Scene, bounds=None) -> list[DrawRange]:
@@ -101,7 +109,8 @@ class SceneGeometry:
         # actor, shown or not; hidden ones are simply left out of the ranges.
         nbody = sum(a.creature.nbody for a in actors)
         nlink = sum(4 * (a.creature.nbody - 1) for a in actors)
-        face_first = grid_rows
+        shadow_rows = nbody * BOX_TRI_VERTS if scene.show_shadows else 0
+        face_first = grid_rows + shadow_rows
         edge_first = face_first + nbody * BOX_TRI_VERTS
         link_first = edge_first + nbody * BOX_EDGE_VERTS
         oline_first = link_first + nlink
@@ -137,6 +146,16 @@ class SceneGeometry:
             edge += nb * BOX_EDGE_VERTS
             link += 4 * (nb - 1)
             joint += nb
+        if shadow_rows:
+            # Shadows: the face rows again, flattened to just above the ground (lifted by
+            # a hair relative to the scene so they never fight the grid in depth).
+            lift = 1e-4 * max(float(np.max(self._scene_extent(scene, bounds))), 1e-3)
+            sh = v[grid_rows:grid_rows + shadow_rows]
+            sh[:] = v[face_first:face_first + shadow_rows]
+            sh[:, 2] = lift
+            sh[:, 3:6] = 0.0
+            sh[:, 6:10] = SHADOW_RGBA
+            self._add(SHADOWS, "triangles", grid_rows, shadow_rows)
         self._add(FACES, "triangles", face_first, nbody * BOX_TRI_VERTS)
         if scene.show_edges:
             self._add(EDGES, "lines", edge_first, nbody * BOX_EDGE_VERTS, EDGE_WIDTH)
@@ -188,6 +207,12 @@ class SceneGeometry:
         self._add(OVERLAY_POINTS, "points", opoint_first, row - opoint_first)
         self.count = total
         return self.ranges
+
+
+def _scene_extent_of(bounds) -> np.ndarray:
+    if bounds is None:
+        return np.ones(3)
+    return np.asarray(bounds[1]) - np.asarray(bounds[0])
 
 
 def _polyline_segments(p: sc.Polyline) -> int:

@@ -14,7 +14,8 @@ X server. pyglet picks its mode once per process, at that import.
 
 Drawing order and state, per frame:
 1. clear to the scene background;
-2. ground grid: depth-tested, blended (its lines fade out), not writing depth;
+2. ground grid: depth-tested, blended (its lines fade out), not writing depth, then
+   ground shadows (boxes flattened onto z = 0) darkening each pixel once (stencil);
 3. body faces: Lambert-lit (``scene.LIGHT_DIR``, ``scene.AMBIENT``), polygon offset so
    4. the box edges drawn next sit cleanly on top of them;
 5. links, overlay lines, joint markers, overlay points: once where visible, and once
@@ -263,7 +264,7 @@ class Renderer:
             gl.glFramebufferRenderbuffer(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0,
                                          gl.GL_RENDERBUFFER, color)
             if depth is not None:
-                gl.glFramebufferRenderbuffer(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT,
+                gl.glFramebufferRenderbuffer(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_STENCIL_ATTACHMENT,
                                              gl.GL_RENDERBUFFER, depth)
             status = gl.glCheckFramebufferStatus(gl.GL_FRAMEBUFFER)
             if status != gl.GL_FRAMEBUFFER_COMPLETE:
@@ -272,7 +273,7 @@ class Renderer:
             return fb
 
         self._color_rb = renderbuffer(gl.GL_RGBA8, self.samples)
-        self._depth_rb = renderbuffer(gl.GL_DEPTH_COMPONENT24, self.samples)
+        self._depth_rb = renderbuffer(gl.GL_DEPTH24_STENCIL8, self.samples)
         self._fbo = framebuffer(self._color_rb, self._depth_rb)
         self._resolve_rb = renderbuffer(gl.GL_RGBA8, 0)
         self._resolve_fbo = framebuffer(self._resolve_rb, None)
@@ -350,7 +351,8 @@ class Renderer:
         gl.glViewport(0, 0, self.width, self.height)
         bg = scene.background
         gl.glClearColor(float(bg[0]), float(bg[1]), float(bg[2]), 1.0)
-        gl.glClear(gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT)
+        gl.glClearStencil(0)
+        gl.glClear(gl.GL_COLOR_BUFFER_BIT | gl.GL_DEPTH_BUFFER_BIT | gl.GL_STENCIL_BUFFER_BIT)
         gl.glEnable(gl.GL_DEPTH_TEST)
         gl.glDepthFunc(gl.GL_LEQUAL)
         gl.glEnable(gl.GL_BLEND)
@@ -387,6 +389,16 @@ class Renderer:
                 gl.glDepthMask(gl.GL_FALSE)
                 run(r)
                 gl.glDepthMask(gl.GL_TRUE)
+            elif r.kind == geo.SHADOWS:
+                # Stencil: a pixel (sample) is darkened by the first flattened face
+                # only, however many overlap there.
+                gl.glEnable(gl.GL_STENCIL_TEST)
+                gl.glStencilFunc(gl.GL_EQUAL, 0, 0xFF)
+                gl.glStencilOp(gl.GL_KEEP, gl.GL_KEEP, gl.GL_INCR)
+                gl.glDepthMask(gl.GL_FALSE)
+                run(r)
+                gl.glDepthMask(gl.GL_TRUE)
+                gl.glDisable(gl.GL_STENCIL_TEST)
             elif r.kind == geo.FACES:
                 p["u_lit"] = 1
                 gl.glEnable(gl.GL_POLYGON_OFFSET_FILL)

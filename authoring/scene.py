@@ -371,6 +371,7 @@ class Scene:
     labels: list[Label] = field(default_factory=list)
     camera: Camera | None = None
     show_grid: bool = True
+    show_shadows: bool = True
     show_labels: bool = True
     show_edges: bool = True
     overlay_hidden_alpha: float = 0.3
@@ -392,6 +393,8 @@ class Scene:
         parts = []
         for a in self.actors:
             b = a.world_bounds()
+            if self.show_shadows and b[0, 2] > 0.0:  # a floating actor: show its shadow too
+                b[0, 2] = 0.0
             parts.append(b[0] + BOX_CORNER_SIGNS_01 * (b[1] - b[0]))
         parts += [p.positions for p in self.points] + [s.starts for s in self.segments]
         parts += [s.ends for s in self.segments] + [p.points for p in self.polylines]

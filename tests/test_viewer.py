@@ -554,8 +554,8 @@ def test_window_controls_headless(renderer, mini, twist, tmp_path, monkeypatch):
 
         assert Image.open(saved).size == win.renderer.read_pixels().shape[1::-1]
     finally:
-        win.renderer.close()
-        win.window.close()
+        win.close()
+    assert win.closed
     assert pyglet.options["headless"]
 
 
@@ -585,3 +585,41 @@ def test_write_png_round_trip(tmp_path):
     img = np.random.default_rng(0).integers(0, 256, size=(7, 5, 3), dtype=np.uint8)
     write_png(tmp_path / "r.png", img)
     np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "r.png")), img)
+
+
+FLOATING = """\
+format: 1
+name: floating
+bodies:
+  - name: a
+    caps: [spine]
+    pos: [0, 0, 1.0]
+    extents: [0.3, 0.3, 0.1]
+  - name: b
+    parent: a
+    caps: [limb]
+    pos: [0.2, 0, 1.12]
+    joint: [0.2, 0, 1.08]
+    extents: [0.3, 0.2, 0.04]
+"""
+
+
+def test_ground_shadows_darken_once_where_boxes_overlap(renderer):
+    c = creature_from_text(FLOATING)
+    scene = sc.Scene(actors=[sc.Actor(c, show_joints=False, show_links=False)], show_grid=False)
+    renderer.draw(scene)
+    img = renderer.read_pixels()
+    cam = renderer.camera
+    # Under a only, under both, under b only; and open ground.
+    ground = np.array([[-0.2, 0.1, 0.0], [0.1, 0.1, 0.0], [0.45, 0.0, 0.0], [-0.2, -1.0, 0.0]])
+    px, _ = cam.project(ground, W, H)
+    only_a, both, only_b, open_ground = (_patch(img, p, 1) for p in px)
+    bg = np.array(sc.BACKGROUND_COLOR)
+    np.testing.assert_allclose(open_ground, bg, atol=0.01)
+    want = bg * (1.0 - geo.SHADOW_RGBA[3]) + np.array(geo.SHADOW_RGBA[:3]) * geo.SHADOW_RGBA[3]
+    for p in (only_a, both, only_b):
+        np.testing.assert_allclose(p, want, atol=0.015)
+    # Without shadows the ground there is plain background.
+    scene.show_shadows = False
+    renderer.draw(scene, camera=cam)
+    np.testing.assert_allclose(_patch(renderer.read_pixels(), px[1], 1), bg, atol=0.01)
