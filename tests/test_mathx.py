@@ -788,6 +788,47 @@ def test_into_twins_write_into_views_and_may_alias():
     np.testing.assert_array_equal(rest, mx.minimal_twist_rotate(q[1], v[0], v[1]))
 
 
+def _tuple_cases():
+    rng = np.random.default_rng(11)
+    a, b = unit_quats(rng, 2)
+    u, v = rng.normal(size=(2, 3))
+    h5 = tuple(rng.normal(size=(6, 3)))
+    return [
+        (mx.quat_mul_t, mx.quat_mul_into, (a, b), 4),
+        (mx.quat_conj_t, mx.quat_conj_into, (a,), 4),
+        (mx.quat_inv_t, mx.quat_inv_into, (2 * a,), 4),
+        (mx.quat_normalize_t, mx.quat_normalize_into, (3 * a,), 4),
+        (mx.quat_rotate_t, mx.quat_rotate_into, (a, u), 3),
+        (mx.quat_rotate_inv_t, mx.quat_rotate_inv_into, (a, u), 3),
+        (mx.quat_nlerp_t, mx.quat_nlerp_into, (a, b, 0.3), 4),
+        (mx.quat_slerp_t, mx.quat_slerp_into, (a, b, 0.3), 4),
+        (mx.quat_from_axis_angle_t, mx.quat_from_axis_angle_into, (u, 0.3), 4),
+        (mx.quat_from_rotvec_t, mx.quat_from_rotvec_into, (u,), 4),
+        (mx.quat_to_rotvec_t, mx.quat_to_rotvec_into, (a,), 3),
+        (mx.quat_between_t, mx.quat_between_into, (u, v), 4),
+        (mx.quat_mirror_sagittal_t, mx.quat_mirror_sagittal_into, (a,), 4),
+        (mx.minimal_twist_rotate_t, mx.minimal_twist_rotate_into, (a, u, v), 4),
+        (mx.hermite5_t, mx.hermite5_into, h5 + (0.3,), 3),
+        (mx.hermite5_deriv_t, mx.hermite5_deriv_into, h5 + (0.3,), 3),
+    ]
+
+
+TUPLES = _tuple_cases()
+
+
+@pytest.mark.parametrize("fn_t,fn_into,args,size", TUPLES, ids=[str(i) for i in range(len(TUPLES))])
+def test_tuple_twin_is_bit_identical(fn_t, fn_into, args, size):
+    out = np.full(size, np.nan)
+    fn_into(*args, out)
+    # Arrays in, tuple out ...
+    got = fn_t(*args)
+    assert isinstance(got, tuple) and len(got) == size
+    np.testing.assert_array_equal(np.array(got), out)
+    # ... and tuples in, tuple out.
+    as_tuples = [tuple(float(x) for x in arg) if isinstance(arg, np.ndarray) else arg for arg in args]
+    np.testing.assert_array_equal(np.array(fn_t(*as_tuples)), out)
+
+
 @njit
 def _hot_path(n, a, b, u, v, qs, w, pts, times, values, p0, m0, p1, m1, a0, a1,
               q_out, v_out, m_out, rots_out, swing, twist):
@@ -819,6 +860,9 @@ def _hot_path(n, a, b, u, v, qs, w, pts, times, values, p0, m0, p1, m1, a0, a1,
         mx.hermite3_keys_into(times, values, values, 0.7, v_out)
         mx.spline_frame_transport_into(p0, m0, a0, p1, m1, a1, times, a, 3, pts, rots_out[:3])
         mx.quat_mirror_sagittal_into(a, q_out)
+        r = mx.quat_mul_t(mx.quat_between_t((u[0], u[1], u[2]), v), (a[0], a[1], a[2], a[3]))
+        q_out[0] = mx.quat_slerp_t(r, b, 0.5)[0]
+        v_out[0] = mx.hermite5_t(p0, m0, a0, p1, m1, a1, 0.2)[0]
         mx.quat_dot(a, b)
         mx.quat_angle(a, b)
 

@@ -18,7 +18,15 @@ import math
 import numpy as np
 from numba import njit
 
-from engine.mathx.quat import _between_scalars
+from engine.mathx.quat import quat_between_t, quat_mul_t
+from engine.mathx.spline import hermite5_deriv_t, hermite5_t
+
+
+@njit(cache=True)
+def minimal_twist_rotate_t(rest_rot, rest_dir, new_dir):
+    """quat_between(rest_dir, new_dir) * rest_rot as a (w, x, y, z) tuple (inputs may be
+    arrays or tuples)."""
+    return quat_mul_t(quat_between_t(rest_dir, new_dir), rest_rot)
 
 
 @njit(cache=True)
@@ -28,13 +36,11 @@ def minimal_twist_rotate_into(rest_rot, rest_dir, new_dir, out):
     4.3.2: "construct the minimal-twist rotation between these tangents and use it to
     rotate the root-relative rest orientation"). A zero-length direction leaves
     rest_rot unchanged. out may alias any input."""
-    rw, rx, ry, rz = rest_rot[0], rest_rot[1], rest_rot[2], rest_rot[3]
-    sw, sx, sy, sz = _between_scalars(rest_dir[0], rest_dir[1], rest_dir[2],
-                                      new_dir[0], new_dir[1], new_dir[2])
-    out[0] = sw * rw - sx * rx - sy * ry - sz * rz
-    out[1] = sw * rx + sx * rw + sy * rz - sz * ry
-    out[2] = sw * ry - sx * rz + sy * rw + sz * rx
-    out[3] = sw * rz + sx * ry - sy * rx + sz * rw
+    w, x, y, z = minimal_twist_rotate_t(rest_rot, rest_dir, new_dir)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -87,11 +93,8 @@ def _transport(points, t0x, t0y, t0z, rot0, out_rots):
         cz = points[hi, 2] - points[lo, 2]
         if cx * cx + cy * cy + cz * cz > 0.0:
             if have_prev:
-                sw, sx, sy, sz = _between_scalars(px, py, pz, cx, cy, cz)
-                rw, rx, ry, rz = (sw * rw - sx * rx - sy * ry - sz * rz,
-                                  sw * rx + sx * rw + sy * rz - sz * ry,
-                                  sw * ry - sx * rz + sy * rw + sz * rx,
-                                  sw * rz + sx * ry - sy * rx + sz * rw)
+                rw, rx, ry, rz = quat_mul_t(quat_between_t((px, py, pz), (cx, cy, cz)),
+                                            (rw, rx, ry, rz))
                 # Renormalize so a long polyline does not drift off unit length.
                 nrm = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
                 rw, rx, ry, rz = rw / nrm, rx / nrm, ry / nrm, rz / nrm
@@ -133,29 +136,6 @@ def frame_transport(points, tangent0, rot0):
 
 
 @njit(cache=True)
-def _hermite5_point_tangent(p0, v0, a0, p1, v1, a1, t, k):
-    # Component k of the quintic Hermite point and its derivative at t (see spline.py
-    # for the basis), as scalars so the transport below allocates nothing.
-    t2 = t * t
-    t3 = t2 * t
-    t4 = t3 * t
-    t5 = t4 * t
-    point = ((1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5) * p0[k]
-             + (t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5) * v0[k]
-             + 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5) * a0[k]
-             + (10.0 * t3 - 15.0 * t4 + 6.0 * t5) * p1[k]
-             + (-4.0 * t3 + 7.0 * t4 - 3.0 * t5) * v1[k]
-             + 0.5 * (t3 - 2.0 * t4 + t5) * a1[k])
-    tangent = ((-30.0 * t2 + 60.0 * t3 - 30.0 * t4) * p0[k]
-               + (1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4) * v0[k]
-               + (t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4) * a0[k]
-               + (30.0 * t2 - 60.0 * t3 + 30.0 * t4) * p1[k]
-               + (-12.0 * t2 + 28.0 * t3 - 15.0 * t4) * v1[k]
-               + (1.5 * t2 - 4.0 * t3 + 2.5 * t4) * a1[k])
-    return point, tangent
-
-
-@njit(cache=True)
 def spline_frame_transport_into(p0, v0, a0, p1, v1, a1, params, rot0, substeps,
                                 out_pos, out_rots):
     """Step along the quintic Hermite spline (p0, v0, a0, p1, v1, a1) (each (3,)),
@@ -184,22 +164,19 @@ def spline_frame_transport_into(p0, v0, a0, p1, v1, a1, params, rot0, substeps,
         t_next = params[i]
         for s in range(1, steps + 1):
             t = t_prev + (t_next - t_prev) * (s / steps)
-            _, cx = _hermite5_point_tangent(p0, v0, a0, p1, v1, a1, t, 0)
-            _, cy = _hermite5_point_tangent(p0, v0, a0, p1, v1, a1, t, 1)
-            _, cz = _hermite5_point_tangent(p0, v0, a0, p1, v1, a1, t, 2)
+            cx, cy, cz = hermite5_deriv_t(p0, v0, a0, p1, v1, a1, t)
             if cx * cx + cy * cy + cz * cz > 0.0:
                 if have_prev:
-                    sw, sx, sy, sz = _between_scalars(px, py, pz, cx, cy, cz)
-                    rw, rx, ry, rz = (sw * rw - sx * rx - sy * ry - sz * rz,
-                                      sw * rx + sx * rw + sy * rz - sz * ry,
-                                      sw * ry - sx * rz + sy * rw + sz * rx,
-                                      sw * rz + sx * ry - sy * rx + sz * rw)
+                    rw, rx, ry, rz = quat_mul_t(quat_between_t((px, py, pz), (cx, cy, cz)),
+                                                (rw, rx, ry, rz))
                     nrm = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
                     rw, rx, ry, rz = rw / nrm, rx / nrm, ry / nrm, rz / nrm
                 px, py, pz = cx, cy, cz
                 have_prev = True
-        for k in range(3):
-            out_pos[i, k], _ = _hermite5_point_tangent(p0, v0, a0, p1, v1, a1, t_next, k)
+        x, y, z = hermite5_t(p0, v0, a0, p1, v1, a1, t_next)
+        out_pos[i, 0] = x
+        out_pos[i, 1] = y
+        out_pos[i, 2] = z
         out_rots[i, 0] = rw
         out_rots[i, 1] = rx
         out_rots[i, 2] = ry

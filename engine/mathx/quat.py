@@ -20,6 +20,12 @@ Robustness (Menagerie's rule: no NaN in output):
   (rotate, to_matrix divide by ``|q|^2``); the rest expect unit input and say so.
 - Every ``_into`` twin reads all of its inputs before it writes, so ``out`` may alias an
   input (``quat_mul_into(a, b, a)`` is fine).
+
+Tuple twins: for kernels that keep small vectors in registers, ``f_t(...)`` returns the
+result as a tuple ((w, x, y, z) or (x, y, z)) and accepts arrays or tuples as inputs.
+They hold the formulas; ``f_into`` stores what ``f_t`` returns, so all three agree bit
+for bit. Passing arrays between numba functions costs reference counting on every call;
+tuples cost nothing.
 """
 
 from __future__ import annotations
@@ -44,14 +50,35 @@ _ROTVEC_SERIES = 1e-3
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def quat_mul_into(a, b, out):
-    """out = a * b (Hamilton product; the rotation applies b, then a)."""
+def _normalize4(w, x, y, z):
+    # Shared tail of every function that ends in a normalization. A zero, tiny-enough-to-
+    # underflow or non-finite quaternion has no direction: it becomes the identity.
+    n2 = w * w + x * x + y * y + z * z
+    if not (n2 > 0.0 and n2 < np.inf):
+        return 1.0, 0.0, 0.0, 0.0
+    n = math.sqrt(n2)
+    return w / n, x / n, y / n, z / n
+
+
+@njit(cache=True)
+def quat_mul_t(a, b):
+    """Hamilton product a * b as a (w, x, y, z) tuple (the rotation applies b, then a)."""
     aw, ax, ay, az = a[0], a[1], a[2], a[3]
     bw, bx, by, bz = b[0], b[1], b[2], b[3]
-    out[0] = aw * bw - ax * bx - ay * by - az * bz
-    out[1] = aw * bx + ax * bw + ay * bz - az * by
-    out[2] = aw * by - ax * bz + ay * bw + az * bx
-    out[3] = aw * bz + ax * by - ay * bx + az * bw
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+@njit(cache=True)
+def quat_mul_into(a, b, out):
+    """out = a * b (Hamilton product; the rotation applies b, then a)."""
+    w, x, y, z = quat_mul_t(a, b)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -62,13 +89,19 @@ def quat_mul(a, b):
 
 
 @njit(cache=True)
+def quat_conj_t(q):
+    """Conjugate (w, -x, -y, -z) as a tuple."""
+    return q[0], -q[1], -q[2], -q[3]
+
+
+@njit(cache=True)
 def quat_conj_into(q, out):
     """out = conjugate of q, (w, -x, -y, -z)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
+    w, x, y, z = quat_conj_t(q)
     out[0] = w
-    out[1] = -x
-    out[2] = -y
-    out[3] = -z
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -79,20 +112,23 @@ def quat_conj(q):
 
 
 @njit(cache=True)
-def quat_inv_into(q, out):
-    """out = q^-1 = conj(q) / |q|^2; a zero quaternion gives the identity."""
+def quat_inv_t(q):
+    """q^-1 = conj(q) / |q|^2 as a tuple; a zero or non-finite q gives the identity."""
     w, x, y, z = q[0], q[1], q[2], q[3]
     n2 = w * w + x * x + y * y + z * z
     if not (n2 > 0.0 and n2 < np.inf):
-        out[0] = 1.0
-        out[1] = 0.0
-        out[2] = 0.0
-        out[3] = 0.0
-        return out
-    out[0] = w / n2
-    out[1] = -x / n2
-    out[2] = -y / n2
-    out[3] = -z / n2
+        return 1.0, 0.0, 0.0, 0.0
+    return w / n2, -x / n2, -y / n2, -z / n2
+
+
+@njit(cache=True)
+def quat_inv_into(q, out):
+    """out = q^-1 = conj(q) / |q|^2; a zero quaternion gives the identity."""
+    w, x, y, z = quat_inv_t(q)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -110,28 +146,20 @@ def quat_dot(a, b):
 
 
 @njit(cache=True)
-def _normalize4_into(w, x, y, z, out):
-    # Shared tail of every function that ends in a normalization. A zero, tiny-enough-to-
-    # underflow or non-finite quaternion has no direction: it becomes the identity.
-    n2 = w * w + x * x + y * y + z * z
-    if not (n2 > 0.0 and n2 < np.inf):
-        out[0] = 1.0
-        out[1] = 0.0
-        out[2] = 0.0
-        out[3] = 0.0
-        return out
-    n = math.sqrt(n2)
-    out[0] = w / n
-    out[1] = x / n
-    out[2] = y / n
-    out[3] = z / n
-    return out
+def quat_normalize_t(q):
+    """q / |q| as a tuple; a zero or non-finite quaternion gives the identity."""
+    return _normalize4(q[0], q[1], q[2], q[3])
 
 
 @njit(cache=True)
 def quat_normalize_into(q, out):
     """out = q / |q|; a zero or non-finite quaternion becomes the identity (never NaN)."""
-    return _normalize4_into(q[0], q[1], q[2], q[3], out)
+    w, x, y, z = _normalize4(q[0], q[1], q[2], q[3])
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)
@@ -145,33 +173,38 @@ def quat_normalize(q):
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _rotate_into(w, x, y, z, v, out):
+def _rotate(w, x, y, z, vx, vy, vz):
     # q v q* / |q|^2 for any nonzero q, expanded (u = (x, y, z)):
     #   ((w^2 - u.u) v + 2 (u.v) u + 2 w (u x v)) / (w^2 + u.u)
     # which is the rotation by q/|q|. A zero q rotates nothing.
-    vx, vy, vz = v[0], v[1], v[2]
     uu = x * x + y * y + z * z
     n2 = w * w + uu
     if not (n2 > 0.0 and n2 < np.inf):
-        out[0] = vx
-        out[1] = vy
-        out[2] = vz
-        return out
+        return vx, vy, vz
     uv = x * vx + y * vy + z * vz
     cx = y * vz - z * vy
     cy = z * vx - x * vz
     cz = x * vy - y * vx
     s = w * w - uu
-    out[0] = (s * vx + 2.0 * uv * x + 2.0 * w * cx) / n2
-    out[1] = (s * vy + 2.0 * uv * y + 2.0 * w * cy) / n2
-    out[2] = (s * vz + 2.0 * uv * z + 2.0 * w * cz) / n2
-    return out
+    return ((s * vx + 2.0 * uv * x + 2.0 * w * cx) / n2,
+            (s * vy + 2.0 * uv * y + 2.0 * w * cy) / n2,
+            (s * vz + 2.0 * uv * z + 2.0 * w * cz) / n2)
+
+
+@njit(cache=True)
+def quat_rotate_t(q, v):
+    """v rotated by q as an (x, y, z) tuple (q need not be unit; zero q leaves v)."""
+    return _rotate(q[0], q[1], q[2], q[3], v[0], v[1], v[2])
 
 
 @njit(cache=True)
 def quat_rotate_into(q, v, out):
     """out = q v q^-1, the 3-vector v rotated by q (q need not be unit; zero q leaves v)."""
-    return _rotate_into(q[0], q[1], q[2], q[3], v, out)
+    x, y, z = _rotate(q[0], q[1], q[2], q[3], v[0], v[1], v[2])
+    out[0] = x
+    out[1] = y
+    out[2] = z
+    return out
 
 
 @njit(cache=True)
@@ -181,9 +214,19 @@ def quat_rotate(q, v):
 
 
 @njit(cache=True)
+def quat_rotate_inv_t(q, v):
+    """v rotated by the inverse of q, as a tuple."""
+    return _rotate(q[0], -q[1], -q[2], -q[3], v[0], v[1], v[2])
+
+
+@njit(cache=True)
 def quat_rotate_inv_into(q, v, out):
     """out = q^-1 v q, v rotated by the inverse of q (world to local)."""
-    return _rotate_into(q[0], -q[1], -q[2], -q[3], v, out)
+    x, y, z = _rotate(q[0], -q[1], -q[2], -q[3], v[0], v[1], v[2])
+    out[0] = x
+    out[1] = y
+    out[2] = z
+    return out
 
 
 @njit(cache=True)
@@ -208,16 +251,26 @@ def _half_angle_between(aw, ax, ay, az, bw, bx, by, bz):
 
 
 @njit(cache=True)
-def quat_nlerp_into(a, b, t, out):
-    """out = normalize((1 - t) a + t b'), b' = b or -b, whichever is on a's hemisphere
-    (so the blend takes the shorter arc). Unit inputs expected."""
+def quat_nlerp_t(a, b, t):
+    """nlerp on the shorter arc as a tuple; see ``quat_nlerp_into``."""
     aw, ax, ay, az = a[0], a[1], a[2], a[3]
     bw, bx, by, bz = b[0], b[1], b[2], b[3]
     if aw * bw + ax * bx + ay * by + az * bz < 0.0:
         bw, bx, by, bz = -bw, -bx, -by, -bz
     s = 1.0 - t
-    return _normalize4_into(s * aw + t * bw, s * ax + t * bx, s * ay + t * by,
-                            s * az + t * bz, out)
+    return _normalize4(s * aw + t * bw, s * ax + t * bx, s * ay + t * by, s * az + t * bz)
+
+
+@njit(cache=True)
+def quat_nlerp_into(a, b, t, out):
+    """out = normalize((1 - t) a + t b'), b' = b or -b, whichever is on a's hemisphere
+    (so the blend takes the shorter arc). Unit inputs expected."""
+    w, x, y, z = quat_nlerp_t(a, b, t)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)
@@ -227,11 +280,8 @@ def quat_nlerp(a, b, t):
 
 
 @njit(cache=True)
-def quat_slerp_into(a, b, t, out):
-    """out = spherical linear interpolation from a (t = 0) to b (t = 1) on the shorter arc
-    (b is negated when a.b < 0). t outside [0, 1] extrapolates along the same great
-    circle. Nearly equal inputs fall back to nlerp. Unit inputs expected; the result is
-    normalized."""
+def quat_slerp_t(a, b, t):
+    """slerp on the shorter arc as a tuple; see ``quat_slerp_into``."""
     aw, ax, ay, az = a[0], a[1], a[2], a[3]
     bw, bx, by, bz = b[0], b[1], b[2], b[3]
     if aw * bw + ax * bx + ay * by + az * bz < 0.0:
@@ -244,8 +294,22 @@ def quat_slerp_into(a, b, t, out):
         st = math.sin(theta)
         ka = math.sin((1.0 - t) * theta) / st
         kb = math.sin(t * theta) / st
-    return _normalize4_into(ka * aw + kb * bw, ka * ax + kb * bx, ka * ay + kb * by,
-                            ka * az + kb * bz, out)
+    return _normalize4(ka * aw + kb * bw, ka * ax + kb * bx, ka * ay + kb * by,
+                       ka * az + kb * bz)
+
+
+@njit(cache=True)
+def quat_slerp_into(a, b, t, out):
+    """out = spherical linear interpolation from a (t = 0) to b (t = 1) on the shorter arc
+    (b is negated when a.b < 0). t outside [0, 1] extrapolates along the same great
+    circle. Nearly equal inputs fall back to nlerp. Unit inputs expected; the result is
+    normalized."""
+    w, x, y, z = quat_slerp_t(a, b, t)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)
@@ -267,7 +331,11 @@ def quat_blend_into(qs, weights, out):
             ref = i
             break
     if ref < 0:
-        return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
+        out[0] = 1.0
+        out[1] = 0.0
+        out[2] = 0.0
+        out[3] = 0.0
+        return out
     rw, rx, ry, rz = qs[ref, 0], qs[ref, 1], qs[ref, 2], qs[ref, 3]
     sw = 0.0
     sx = 0.0
@@ -284,7 +352,12 @@ def quat_blend_into(qs, weights, out):
         sx += wi * qx
         sy += wi * qy
         sz += wi * qz
-    return _normalize4_into(sw, sx, sy, sz, out)
+    w, x, y, z = _normalize4(sw, sx, sy, sz)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)
@@ -298,19 +371,26 @@ def quat_blend(qs, weights):
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def quat_from_axis_angle_into(axis, angle, out):
-    """out = rotation by angle (rad, right-handed) about axis; the axis need not be unit,
-    a zero or non-finite axis, or a non-finite angle, gives the identity."""
+def quat_from_axis_angle_t(axis, angle):
+    """Rotation by angle about axis as a tuple; see ``quat_from_axis_angle_into``."""
     x, y, z = axis[0], axis[1], axis[2]
     n = math.sqrt(x * x + y * y + z * z)
     if not (n > 0.0 and n < np.inf and math.isfinite(angle)):
-        return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
+        return 1.0, 0.0, 0.0, 0.0
     h = 0.5 * angle
     s = math.sin(h) / n
-    out[0] = math.cos(h)
-    out[1] = x * s
-    out[2] = y * s
-    out[3] = z * s
+    return math.cos(h), x * s, y * s, z * s
+
+
+@njit(cache=True)
+def quat_from_axis_angle_into(axis, angle, out):
+    """out = rotation by angle (rad, right-handed) about axis; the axis need not be unit,
+    a zero or non-finite axis, or a non-finite angle, gives the identity."""
+    w, x, y, z = quat_from_axis_angle_t(axis, angle)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -345,24 +425,31 @@ def quat_to_axis_angle(q):
 
 
 @njit(cache=True)
-def quat_from_rotvec_into(r, out):
-    """out = exp(r / 2): the rotation by |r| rad about r. Stable near r = 0 (Taylor series
-    of sin(|r|/2)/|r| below 1e-3 rad). A non-finite r (or |r| > 1e154) gives the
-    identity."""
+def quat_from_rotvec_t(r):
+    """exp(r / 2) as a tuple; see ``quat_from_rotvec_into``."""
     x, y, z = r[0], r[1], r[2]
     theta2 = x * x + y * y + z * z
     theta = math.sqrt(theta2)
     if not (theta < np.inf):
-        return _normalize4_into(0.0, 0.0, 0.0, 0.0, out)
+        return 1.0, 0.0, 0.0, 0.0
     if theta < _ROTVEC_SERIES:
         # sin(theta/2)/theta = 1/2 - theta^2/48 + theta^4/3840 - ...
         k = 0.5 - theta2 / 48.0 + theta2 * theta2 / 3840.0
     else:
         k = math.sin(0.5 * theta) / theta
-    out[0] = math.cos(0.5 * theta)
-    out[1] = x * k
-    out[2] = y * k
-    out[3] = z * k
+    return math.cos(0.5 * theta), x * k, y * k, z * k
+
+
+@njit(cache=True)
+def quat_from_rotvec_into(r, out):
+    """out = exp(r / 2): the rotation by |r| rad about r. Stable near r = 0 (Taylor series
+    of sin(|r|/2)/|r| below 1e-3 rad). A non-finite r (or |r| > 1e154) gives the
+    identity."""
+    w, x, y, z = quat_from_rotvec_t(r)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
     return out
 
 
@@ -373,16 +460,12 @@ def quat_from_rotvec(r):
 
 
 @njit(cache=True)
-def quat_to_rotvec_into(q, out):
-    """out = 2 log(q): axis * angle with angle in [0, pi] (the shorter way round; q and -q
-    give the same vector). q is normalized first. Stable near the identity."""
+def quat_to_rotvec_t(q):
+    """2 log(q) as an (x, y, z) tuple; see ``quat_to_rotvec_into``."""
     w, x, y, z = q[0], q[1], q[2], q[3]
     n2 = w * w + x * x + y * y + z * z
     if not (n2 > 0.0 and n2 < np.inf):
-        out[0] = 0.0
-        out[1] = 0.0
-        out[2] = 0.0
-        return out
+        return 0.0, 0.0, 0.0
     nn = math.sqrt(n2)
     w, x, y, z = w / nn, x / nn, y / nn, z / nn
     if w < 0.0:
@@ -394,9 +477,18 @@ def quat_to_rotvec_into(q, out):
         k = 2.0 * math.atan2(s, w) / s
     else:
         k = 2.0
-    out[0] = x * k
-    out[1] = y * k
-    out[2] = z * k
+    return x * k, y * k, z * k
+
+
+@njit(cache=True)
+def quat_to_rotvec_into(q, out):
+    """out = 2 log(q): axis * angle with angle in [0, pi] (the shorter way round; q and -q
+    give the same vector). q is normalized first; a zero q gives 0. Stable near the
+    identity."""
+    x, y, z = quat_to_rotvec_t(q)
+    out[0] = x
+    out[1] = y
+    out[2] = z
     return out
 
 
@@ -486,7 +578,12 @@ def quat_from_matrix_into(m, out):
         y = (m12 + m21) * s
     if w < 0.0:
         w, x, y, z = -w, -x, -y, -z
-    return _normalize4_into(w, x, y, z, out)
+    w, x, y, z = _normalize4(w, x, y, z)
+    out[0] = w
+    out[1] = x
+    out[2] = y
+    out[3] = z
+    return out
 
 
 @njit(cache=True)
@@ -521,9 +618,11 @@ def mat4_from_pose(pos, q):
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
-def _between_scalars(ux, uy, uz, vx, vy, vz):
-    # quat_between on scalars, returning (w, x, y, z): shared with the frame transport
-    # kernels, which keep their tangents in registers rather than scratch arrays.
+def quat_between_t(u, v):
+    """Shortest-arc rotation from direction u to direction v as a tuple (u, v: arrays or
+    tuples); see ``quat_between_into``."""
+    ux, uy, uz = u[0], u[1], u[2]
+    vx, vy, vz = v[0], v[1], v[2]
     nu = math.sqrt(ux * ux + uy * uy + uz * uz)
     nv = math.sqrt(vx * vx + vy * vy + vz * vz)
     if not (nu > 0.0 and nu < np.inf and nv > 0.0 and nv < np.inf):
@@ -569,7 +668,7 @@ def quat_between_into(u, v, out):
     aligned with u (the lowest k on ties), normalized. (Hecker 2008 sec 4.3.2 builds
     spine and limb orientations from these.)
     """
-    w, x, y, z = _between_scalars(u[0], u[1], u[2], v[0], v[1], v[2])
+    w, x, y, z = quat_between_t(u, v)
     out[0] = w
     out[1] = x
     out[2] = y
@@ -600,8 +699,11 @@ def quat_swing_twist_into(q, axis, swing_out, twist_out):
         tw, tx, ty, tz = 1.0, 0.0, 0.0, 0.0
     if tw < 0.0:
         tw, tx, ty, tz = -tw, -tx, -ty, -tz
-    _normalize4_into(tw, tx, ty, tz, twist_out)
-    tw, tx, ty, tz = twist_out[0], twist_out[1], twist_out[2], twist_out[3]
+    tw, tx, ty, tz = _normalize4(tw, tx, ty, tz)
+    twist_out[0] = tw
+    twist_out[1] = tx
+    twist_out[2] = ty
+    twist_out[3] = tz
     # swing = q * conj(twist)
     swing_out[0] = w * tw + x * tx + y * ty + z * tz
     swing_out[1] = -w * tx + x * tw - y * tz + z * ty
@@ -633,16 +735,22 @@ def quat_angle(a, b):
 # ---------------------------------------------------------------------------------------
 
 @njit(cache=True)
+def quat_mirror_sagittal_t(q):
+    """q mirrored through the sagittal (XZ) plane, (w, -x, y, -z), as a tuple."""
+    return q[0], -q[1], q[2], -q[3]
+
+
+@njit(cache=True)
 def quat_mirror_sagittal_into(q, out):
     """out = q mirrored through the sagittal (XZ) plane: with M = diag(1, -1, 1), the
     rotation M R M, which is (w, -x, y, -z). Mirroring a pose negates Y of positions and
     maps each rotation this way, so mirrored bodies turn as the mirror image of the
     originals (a left arm raised forward becomes a right arm raised forward)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
+    w, x, y, z = quat_mirror_sagittal_t(q)
     out[0] = w
-    out[1] = -x
+    out[1] = x
     out[2] = y
-    out[3] = -z
+    out[3] = z
     return out
 
 

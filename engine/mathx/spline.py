@@ -268,6 +268,43 @@ def hermite5_deriv2(p0, v0, a0, p1, v1, a1, t):
     return hermite5_deriv2_into(p0, v0, a0, p1, v1, a1, t, np.empty(p0.shape[0]))
 
 
+@njit(cache=True)
+def hermite5_t(p0, v0, a0, p1, v1, a1, t):
+    """The quintic Hermite point at t of 3-vectors (arrays or tuples) as an (x, y, z)
+    tuple, for kernels that keep vectors in registers. Same formula as
+    ``hermite5_into``, so the results agree bit for bit."""
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    t5 = t4 * t
+    b0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
+    b1 = t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
+    b2 = 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5)
+    b3 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
+    b4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
+    b5 = 0.5 * (t3 - 2.0 * t4 + t5)
+    return (b0 * p0[0] + b1 * v0[0] + b2 * a0[0] + b3 * p1[0] + b4 * v1[0] + b5 * a1[0],
+            b0 * p0[1] + b1 * v0[1] + b2 * a0[1] + b3 * p1[1] + b4 * v1[1] + b5 * a1[1],
+            b0 * p0[2] + b1 * v0[2] + b2 * a0[2] + b3 * p1[2] + b4 * v1[2] + b5 * a1[2])
+
+
+@njit(cache=True)
+def hermite5_deriv_t(p0, v0, a0, p1, v1, a1, t):
+    """d/dt of the quintic Hermite of 3-vectors at t as an (x, y, z) tuple."""
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t3 * t
+    b0 = -30.0 * t2 + 60.0 * t3 - 30.0 * t4
+    b1 = 1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4
+    b2 = t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4
+    b3 = 30.0 * t2 - 60.0 * t3 + 30.0 * t4
+    b4 = -12.0 * t2 + 28.0 * t3 - 15.0 * t4
+    b5 = 1.5 * t2 - 4.0 * t3 + 2.5 * t4
+    return (b0 * p0[0] + b1 * v0[0] + b2 * a0[0] + b3 * p1[0] + b4 * v1[0] + b5 * a1[0],
+            b0 * p0[1] + b1 * v0[1] + b2 * a0[1] + b3 * p1[1] + b4 * v1[1] + b5 * a1[1],
+            b0 * p0[2] + b1 * v0[2] + b2 * a0[2] + b3 * p1[2] + b4 * v1[2] + b5 * a1[2])
+
+
 # ---------------------------------------------------------------------------------------
 # Least-squares fit of a quintic spine spline (Hecker 2008 sec 4.3.2, "Spine Splines")
 # ---------------------------------------------------------------------------------------
