@@ -36,8 +36,8 @@ SHADOW_RGBA = (0.0, 0.0, 0.05, 0.16)
 
 #: Joint marker size (pixels at 720 rows) and link width.
 JOINT_SIZE = 6.0
-LINK_WIDTH = 1.5
-EDGE_WIDTH = 1.25
+LINK_WIDTH = 1.0
+EDGE_WIDTH = 1.0
 GRID_WIDTH = 1.0
 
 
