@@ -47,6 +47,11 @@ def test_auto_tangents():
     m = auto_tangents(times, values)
     np.testing.assert_allclose(m[1:3], (2 * times[1:3])[:, None] * [1.0, -2.0, 0.5], atol=1e-12)  # exact
     np.testing.assert_allclose(m[[0, -1]], 0.0)                 # ends ease in and out
+    # clamped: extrema and plateaus get flat tangents, so holds hold and nothing overshoots
+    m = auto_tangents([0.0, 1.0, 2.0, 3.0, 4.0], [[0.0], [1.0], [1.0], [0.5], [2.0]])
+    assert m[1, 0] == 0.0 and m[2, 0] == 0.0 and m[3, 0] == 0.0
+    for t in np.linspace(1.0, 2.0, 11):
+        assert sample_vector([0.0, 1.0, 2.0, 3.0, 4.0], [[0.0], [1.0], [1.0], [0.5], [2.0]], m, m, t)[0] == 1.0
     # looping with the first key at 0 and the last at the length: the ends share a tangent
     loop = np.array([[0.0], [1.0], [0.0], [-1.0], [0.0]])
     lt = np.array([0.0, 0.5, 1.0, 1.5, 2.0])
@@ -213,7 +218,7 @@ def test_key_remapping_keeps_the_active_body_curve(creature_src):
                      (PositionSpec("absolute", scale="creature_size"), RotationSpec("lookat", limits=(45.0, 135.0)))]:
         new = remap_channel(ch, c, body, position=pos, rotation=rot, target=target)
         assert new.position == pos and new.rotation == rot
-        assert [k.tin is None for k in new.position_keys] == [k.tin is None for k in ch.position_keys]
+        assert all(k.tin is not None and k.tout is not None for k in new.position_keys + new.rotation_keys)
         anim2 = dataclasses.replace(anim, channels=(new,))
         after = specialized_curve(anim2, c, body, target, times)
         scale = max(1.0, float(np.max(c.size)))

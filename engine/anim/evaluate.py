@@ -121,15 +121,19 @@ def make_scratch(animation: Animation, binding: SimpleBinding) -> EvalScratch:
 
 
 def default_target(animation: Animation, creature, name: str) -> np.ndarray:
-    """Preview position of external target ``name``: its default, in creature-size units
-    from the centre of the creature's ground footprint (x forward, y left, z up)."""
+    """Preview position of external target ``name``: its default (x forward, y left, z up)
+    from the centre of the creature's ground footprint, x and y in units of the
+    creature's largest side and z in units of its height, so [1, 0, 0.5] is a body
+    length ahead at half height for a snake, a giant and a spider alike."""
     d = animation.target_default(name)
     if d is None:
         raise AnimationError(f"external target '{name}' is not set and has no default in the file",
                              path=animation.path, field="targets")
     b = creature.bounds
     base = np.array([0.5 * (b[0, 0] + b[1, 0]), 0.5 * (b[0, 1] + b[1, 1]), 0.0])
-    return base + np.asarray(d, float) * creature.size
+    size = creature.size
+    unit = np.array([np.max(size), np.max(size), size[2]])
+    return base + np.asarray(d, float) * unit
 
 
 def fill_targets(animation: Animation, creature, binding: SimpleBinding, targets, body_pos, out) -> np.ndarray:

@@ -8,8 +8,8 @@ File format 1::
     length: 2.0                 # seconds
     loop: true                  # optional, default false
     branches: {has_graspers: true}     # optional; absent predicates are "ignore"
-    targets:                    # optional: external targets and a preview default, in
-      fruit: [0.8, 0.3, 0.9]    # creature-size units from the ground centre (x fwd, y left, z up)
+    targets:                    # optional: external targets and a preview default from the
+      fruit: [0.8, 0.3, 0.9]    # ground centre, x, y in largest sides, z in heights
     channels:
       - name: hand
         select: {type: grasper, y: left, extent: frontmost}     # the primary context query

@@ -6,14 +6,19 @@ angular velocity (rad/s) for rotations. A key's tangent is either explicit (``ti
 ``tout`` in the file) or automatic:
 
 * interior keys: the derivative of the parabola through the key and its neighbours
-  (non-uniform Catmull-Rom, ``(h+ s- + h- s+) / (h- + h+)``);
+  (non-uniform Catmull-Rom, ``(h+ s- + h- s+) / (h- + h+)``), *clamped*: a component
+  for which the key is an extremum or a plateau (the slopes before and after do not
+  have the same strict sign) gets 0, as animation packages' "auto" tangents do, so held
+  poses hold and a hand keyed onto the ground does not overshoot through it;
+  rotations are clamped the same way, isotropically: zero when the rotations before and
+  after the key turn in opposite directions (dot of the two rotation vectors <= 0);
 * the first and last key: zero (the curve eases in and out), except on a looping
   animation whose first key is at 0 and last key at its length, where the neighbours
   across the loop are used so the loop has no kink.
 
-Automatic tangents are linear in the key values (and rotate with rotation keys), so an
-affine change of generalized coordinates, which is what key remapping between movement
-modes is, maps the whole curve and not only its keys.
+Clamping makes automatic tangents depend on the coordinate axes, so key remapping
+(``engine.anim.remap_channel``) writes every remapped tangent out explicitly: the
+active body's specialized curve then stays identical between keys too.
 """
 
 from __future__ import annotations
@@ -24,6 +29,13 @@ from engine.channels import _kernels as K
 
 
 def _three_point(prev_slope, next_slope, h_prev, h_next):
+    m = (h_next * prev_slope + h_prev * next_slope) / (h_prev + h_next)
+    return np.where(prev_slope * next_slope > 0.0, m, 0.0)
+
+
+def _three_point_rot(prev_slope, next_slope, h_prev, h_next):
+    if float(prev_slope @ next_slope) <= 0.0:
+        return np.zeros(3)
     return (h_next * prev_slope + h_prev * next_slope) / (h_prev + h_next)
 
 
@@ -60,10 +72,10 @@ def rotation_auto_tangents(times, quats, *, loop_length: float | None = None) ->
         K._relative_rotvec(q[i], q[i + 1], logs[i])
     for i in range(1, k - 1):
         hp, hn = t[i] - t[i - 1], t[i + 1] - t[i]
-        out[i] = _three_point(logs[i - 1] / hp, logs[i] / hn, hp, hn)
+        out[i] = _three_point_rot(logs[i - 1] / hp, logs[i] / hn, hp, hn)
     if _wraps(t, loop_length) and k >= 3:
         hp, hn = t[-1] - t[-2], t[1] - t[0]
-        m = _three_point(logs[-1] / hp, logs[0] / hn, hp, hn)
+        m = _three_point_rot(logs[-1] / hp, logs[0] / hn, hp, hn)
         out[0] = m
         out[-1] = m
     return out

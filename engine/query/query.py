@@ -11,7 +11,10 @@ in this order:
    the default) or the *setspace*, the bounding box of every body with the query's
    type (``setspace``). The box's midplane splits the axis into two halfspaces; the
    *centre zone* is the band within ``CENTER_ZONE`` of the half-size around the
-   midplane. ``center`` keeps bodies in the centre zone; a side constraint keeps its
+   midplane: the middle third of the box (so Front/Center/Back are the box's thirds,
+   and an upright creature's hands hanging at its sides are "front" and "back" both,
+   as the paper's inclusive side constraints intend). ``center`` keeps bodies in the
+   centre zone; a side constraint keeps its
    halfspace *and* the centre zone ("the side constraints being inclusive of the
    center zone"), so a creature with one grasper on the sagittal plane still answers
    "the left grasper".
@@ -41,8 +44,9 @@ import numpy as np
 from engine.errors import DataError
 from engine.model.caps import CAP_BIT, CAPABILITIES
 
-#: Half-width of the centre zone as a fraction of the box's half-size along the axis.
-CENTER_ZONE = 0.1
+#: Half-width of the centre zone as a fraction of the box's half-size along the axis
+#: (1/3: the centre zone is the middle third of the box).
+CENTER_ZONE = 1.0 / 3.0
 #: Extent ties: positions closer than this fraction of the creature's largest size are equal.
 TIE_TOLERANCE = 1e-9
 
