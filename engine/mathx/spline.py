@@ -197,14 +197,6 @@ def hermite5_basis_deriv2(t):
 
 
 @njit(cache=True)
-def _combine6_into(b0, b1, b2, b3, b4, b5, p0, v0, a0, p1, v1, a1, out):
-    for k in range(out.shape[0]):
-        out[k] = (b0 * p0[k] + b1 * v0[k] + b2 * a0[k]
-                  + b3 * p1[k] + b4 * v1[k] + b5 * a1[k])
-    return out
-
-
-@njit(cache=True)
 def hermite5_into(p0, v0, a0, p1, v1, a1, t, out):
     """out (d,) = the quintic Hermite at t with p(0) = p0, p'(0) = v0, p''(0) = a0,
     p(1) = p1, p'(1) = v1, p''(1) = a1 (all (d,))."""
@@ -212,13 +204,16 @@ def hermite5_into(p0, v0, a0, p1, v1, a1, t, out):
     t3 = t2 * t
     t4 = t3 * t
     t5 = t4 * t
-    return _combine6_into(1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5,
-                          t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5,
-                          0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5),
-                          10.0 * t3 - 15.0 * t4 + 6.0 * t5,
-                          -4.0 * t3 + 7.0 * t4 - 3.0 * t5,
-                          0.5 * (t3 - 2.0 * t4 + t5),
-                          p0, v0, a0, p1, v1, a1, out)
+    b0 = 1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5
+    b1 = t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5
+    b2 = 0.5 * (t2 - 3.0 * t3 + 3.0 * t4 - t5)
+    b3 = 10.0 * t3 - 15.0 * t4 + 6.0 * t5
+    b4 = -4.0 * t3 + 7.0 * t4 - 3.0 * t5
+    b5 = 0.5 * (t3 - 2.0 * t4 + t5)
+    for k in range(out.shape[0]):
+        out[k] = (b0 * p0[k] + b1 * v0[k] + b2 * a0[k]
+                  + b3 * p1[k] + b4 * v1[k] + b5 * a1[k])
+    return out
 
 
 @njit(cache=True)
@@ -233,13 +228,16 @@ def hermite5_deriv_into(p0, v0, a0, p1, v1, a1, t, out):
     t2 = t * t
     t3 = t2 * t
     t4 = t3 * t
-    return _combine6_into(-30.0 * t2 + 60.0 * t3 - 30.0 * t4,
-                          1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4,
-                          t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4,
-                          30.0 * t2 - 60.0 * t3 + 30.0 * t4,
-                          -12.0 * t2 + 28.0 * t3 - 15.0 * t4,
-                          1.5 * t2 - 4.0 * t3 + 2.5 * t4,
-                          p0, v0, a0, p1, v1, a1, out)
+    b0 = -30.0 * t2 + 60.0 * t3 - 30.0 * t4
+    b1 = 1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4
+    b2 = t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4
+    b3 = 30.0 * t2 - 60.0 * t3 + 30.0 * t4
+    b4 = -12.0 * t2 + 28.0 * t3 - 15.0 * t4
+    b5 = 1.5 * t2 - 4.0 * t3 + 2.5 * t4
+    for k in range(out.shape[0]):
+        out[k] = (b0 * p0[k] + b1 * v0[k] + b2 * a0[k]
+                  + b3 * p1[k] + b4 * v1[k] + b5 * a1[k])
+    return out
 
 
 @njit(cache=True)
@@ -253,13 +251,16 @@ def hermite5_deriv2_into(p0, v0, a0, p1, v1, a1, t, out):
     """out (d,) = d^2/dt^2 of the quintic Hermite at t."""
     t2 = t * t
     t3 = t2 * t
-    return _combine6_into(-60.0 * t + 180.0 * t2 - 120.0 * t3,
-                          -36.0 * t + 96.0 * t2 - 60.0 * t3,
-                          1.0 - 9.0 * t + 18.0 * t2 - 10.0 * t3,
-                          60.0 * t - 180.0 * t2 + 120.0 * t3,
-                          -24.0 * t + 84.0 * t2 - 60.0 * t3,
-                          3.0 * t - 12.0 * t2 + 10.0 * t3,
-                          p0, v0, a0, p1, v1, a1, out)
+    b0 = -60.0 * t + 180.0 * t2 - 120.0 * t3
+    b1 = -36.0 * t + 96.0 * t2 - 60.0 * t3
+    b2 = 1.0 - 9.0 * t + 18.0 * t2 - 10.0 * t3
+    b3 = 60.0 * t - 180.0 * t2 + 120.0 * t3
+    b4 = -24.0 * t + 84.0 * t2 - 60.0 * t3
+    b5 = 3.0 * t - 12.0 * t2 + 10.0 * t3
+    for k in range(out.shape[0]):
+        out[k] = (b0 * p0[k] + b1 * v0[k] + b2 * a0[k]
+                  + b3 * p1[k] + b4 * v1[k] + b5 * a1[k])
+    return out
 
 
 @njit(cache=True)
