@@ -28,8 +28,6 @@ import math
 import os
 from collections.abc import Callable, Sequence
 
-import numpy as np
-
 from authoring import render as rd
 from authoring import scene as sc
 from engine.model.creature import Creature
@@ -42,6 +40,18 @@ HELP_TEXT = ("drag: orbit   right drag/scroll: zoom   middle or shift drag: pan 
 ORBIT_PER_PIXEL = 0.008
 ZOOM_PER_PIXEL = 0.01
 ZOOM_PER_NOTCH = 0.88
+
+
+def _free_path(path: str) -> str:
+    """``path``, or ``stem_2.png``, ``stem_3.png``, ... if it exists: never overwrite a
+    file the user did not name."""
+    if not os.path.exists(path):
+        return path
+    stem, ext = os.path.splitext(path)
+    n = 2
+    while os.path.exists(f"{stem}_{n}{ext}"):
+        n += 1
+    return f"{stem}_{n}{ext}"
 
 
 def _load_creatures(items) -> list[Creature]:
@@ -80,8 +90,9 @@ def snapshot_creatures(creatures, path, width: int = 1280, height: int = 720, *,
 
 def view_file(path, snapshot=None, *, width: int = 1280, height: int = 720):
     """Show the creature file ``path``; with ``snapshot`` write that PNG instead (no
-    window). Without a display a snapshot is written next to the file's name in the
-    current folder. Returns the PNG path, or None after an interactive session.
+    window). Without a display a snapshot named after the file is written in the
+    current folder instead (``NAME.png``, or ``NAME_2.png``... if that exists).
+    Returns the PNG path, or None after an interactive session.
     A bad file raises ``engine.errors.CreatureError`` naming the file and line."""
     import engine
 
@@ -100,8 +111,9 @@ def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
 
     ``update(dt)`` is called before every frame (the demo moves its actors there).
     Without a display (or with ``MENAGERIE_HEADLESS=1``) no window can open: a snapshot
-    is written to ``fallback_path`` (default ``menagerie_view.png``) instead, the path is
-    printed and returned. Returns None after the window is closed.
+    is written to ``fallback_path`` (default ``menagerie_view.png``; ``_2``, ``_3``... are
+    added rather than overwrite a file) instead, the path is printed and returned.
+    Returns None after the window is closed.
     """
     if isinstance(scene_or_creatures, (list, tuple)) and scene_or_creatures and all(
             isinstance(c, (Creature, str, os.PathLike)) for c in scene_or_creatures):
@@ -109,7 +121,7 @@ def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
     else:
         pages = scene_pages(sc.scene_for(scene_or_creatures))
     if rd.want_headless():
-        out = fallback_path or "menagerie_view.png"
+        out = _free_path(fallback_path or "menagerie_view.png")
         rd.render_png(pages[0], out, width, height)
         print(f"menagerie view: no display here (DISPLAY is not set), wrote {out} instead")
         return out
@@ -305,17 +317,14 @@ class ViewerWindow:
     def save(self, path: str | None = None) -> str:
         """Write the current picture (without the help text) as PNG; returns the path."""
         if path is None:
-            n = 1
-            while os.path.exists(f"menagerie_{n:03d}.png"):
-                n += 1
-            path = f"menagerie_{n:03d}.png"
+            path = _free_path("menagerie.png")
         self.renderer.draw(self.scene, self.camera)
         self.renderer.save_png(path)
         self.last_saved = path
         print(f"menagerie view: wrote {path}")
         return path
 
-    def draw(self) -> np.ndarray | None:
+    def draw(self) -> None:
         """Draw the current page into the window."""
         from pyglet import gl
 
@@ -330,7 +339,6 @@ class ViewerWindow:
         self._title.draw()
         if self.show_help:
             self._help.draw()
-        return None
 
 
 # -- measuring and a small command line -----------------------------------------------------------

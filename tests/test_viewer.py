@@ -568,6 +568,8 @@ def test_view_without_display_writes_a_snapshot(renderer, mini, tmp_path, monkey
     out = view(mini, width=200, height=120, fallback_path=str(tmp_path / "v.png"))
     assert Image.open(out).size == (200, 120)
     assert "no display" in capsys.readouterr().out
+    again = view(mini, width=200, height=120, fallback_path=str(tmp_path / "v.png"))
+    assert again == str(tmp_path / "v_2.png")  # the first picture is not overwritten
     yaml_path = tmp_path / "mini.yaml"
     yaml_path.write_text(MINI)
     snap = view_file(yaml_path, snapshot=tmp_path / "s.png", width=160, height=100)
