@@ -304,17 +304,20 @@ class Player:
         anim = h.animation
         first = getattr(h, "_events_from_start", False)
         h._events_from_start = False  # type: ignore[attr-defined]
+        # Intervals partition the timeline, so no event fires twice: forward (t0, t1],
+        # backward [t1, t0); a wrap splits the step at the loop seam.
         if speed >= 0.0:
-            spans = [(t0, length + 1e-9), (0.0, t1)] if wrapped else [(t0, t1)]
+            spans = [(t0, length, False, True), (0.0, t1, True, True)] if wrapped else [(t0, t1, first, True)]
         else:
-            spans = [(0.0, t0), (t1, length + 1e-9)] if wrapped else [(t1, t0)]
+            spans = [(0.0, t0, True, False), (t1, length, True, True)] if wrapped else [(t1, t0, True, False)]
         fired = []
-        for lo, hi in spans:
-            # Half-open (lo, hi]: an event exactly at the start fires on the first frame only.
-            for channel, event in anim.events_between(lo, hi + 1e-12):
-                if event.t > lo or (first and event.t == lo) or (lo == 0.0 and wrapped and event.t == 0.0):
-                    fired.append((channel, event))
-        for channel, event in fired:
+        for k, (lo, hi, lo_in, hi_in) in enumerate(spans):
+            for channel in anim.channels:
+                for event in channel.events:
+                    if (event.t > lo or (lo_in and event.t == lo)) and (event.t < hi or (hi_in and event.t == hi)):
+                        fired.append(((k, event.t if speed >= 0.0 else -event.t), channel.name, event))
+        fired.sort(key=lambda f: f[0])
+        for _, channel, event in fired:
             for callback in (h.on_event, self.on_event):
                 if callback is not None:
                     callback(h, channel, event)
