@@ -38,7 +38,7 @@ def advance_slots(dt, slot_active, slot_time, slot_prev_time, slot_speed, slot_l
             slot_prev_time[c, s] = t0
             if slot_loop[c, s]:
                 if t1 >= length or t1 < 0.0:
-                    t1 = t1 - length * ((t1 // length))
+                    t1 = t1 - length * (t1 // length)
                     slot_flags[c, s] |= FLAG_WRAPPED
             else:
                 if t1 > length:
