@@ -13,12 +13,10 @@ All functions are ``@njit(cache=True)``, float64, quaternions (w, x, y, z).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
-from engine.mathx.quat import quat_between_t, quat_mul_t
+from engine.mathx.quat import _normalize4, quat_between_t, quat_mul_t
 from engine.mathx.spline import hermite5_deriv_t, hermite5_t
 
 
@@ -96,8 +94,7 @@ def _transport(points, t0x, t0y, t0z, rot0, out_rots):
                 rw, rx, ry, rz = quat_mul_t(quat_between_t((px, py, pz), (cx, cy, cz)),
                                             (rw, rx, ry, rz))
                 # Renormalize so a long polyline does not drift off unit length.
-                nrm = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-                rw, rx, ry, rz = rw / nrm, rx / nrm, ry / nrm, rz / nrm
+                rw, rx, ry, rz = _normalize4(rw, rx, ry, rz)
             px, py, pz = cx, cy, cz
             have_prev = True
         out_rots[i, 0] = rw
@@ -120,8 +117,9 @@ def frame_transport_into(points, rot0, out_rots, tangent0=None):
     Without tangent0, rot0 is the frame at point 0: out_rots[0] = rot0. With tangent0
     (3,), rot0 is a frame that belongs to the direction tangent0 (say, a rest tangent)
     and is first turned onto the polyline: out_rots[0] = quat_between(tangent0,
-    tangent[0]) * rot0. Repeated points (zero tangents) carry the frame unchanged, and a
-    single point keeps rot0.
+    tangent[0]) * rot0 (a zero tangent0 counts as none). Repeated points (zero tangents)
+    carry the frame unchanged, and a single point keeps rot0. rot0 should be unit; the
+    frames are renormalized after every step (a zero rot0 becomes the identity).
     """
     if tangent0 is None:
         return _transport(points, 0.0, 0.0, 0.0, rot0, out_rots)
@@ -169,8 +167,7 @@ def spline_frame_transport_into(p0, v0, a0, p1, v1, a1, params, rot0, substeps,
                 if have_prev:
                     rw, rx, ry, rz = quat_mul_t(quat_between_t((px, py, pz), (cx, cy, cz)),
                                                 (rw, rx, ry, rz))
-                    nrm = math.sqrt(rw * rw + rx * rx + ry * ry + rz * rz)
-                    rw, rx, ry, rz = rw / nrm, rx / nrm, ry / nrm, rz / nrm
+                    rw, rx, ry, rz = _normalize4(rw, rx, ry, rz)
                 px, py, pz = cx, cy, cz
                 have_prev = True
         x, y, z = hermite5_t(p0, v0, a0, p1, v1, a1, t_next)
