@@ -367,6 +367,48 @@ def _prepare(m, s, h):
             k22 += -t20 * ry + t21 * rx
         _inv3_sym_into(k00, k01, k02, k11, k12, k22, s.joint_kinv, j)
         _inv3_sym_into(l00, l01, l02, l11, l12, l22, s.joint_ang_kinv, j)
+        # PD servo inertia (Zordan et al. 2005 section 4: "I is the inertial matrix of the
+        # outboard body"): the child's inertia about the joint point, I + m (|r|^2 E - r r^T),
+        # reduced with the parent's about the same point, (Ja^-1 + Jb^-1)^-1. About the
+        # joint, not the centre of mass, so a servo set to f Hz swings a hanging limb at
+        # f Hz (a rod about its end has 4x its central inertia).
+        if m.joint_locked[j] == 0:
+            u00 = u01 = u02 = u11 = u12 = u22 = 0.0
+            for side in range(2):
+                bb = a if side == 0 else b
+                if m.body_inv_mass[bb] == 0.0:
+                    continue
+                rx, ry, rz = (rax, ray, raz) if side == 0 else (rbx, rby, rbz)
+                q = s.body_rot[bb]
+                mass = 1.0 / m.body_inv_mass[bb]
+                r2 = rx * rx + ry * ry + rz * rz
+                # world inertia R diag(I) R^T from the body-frame moments
+                e00 = e01 = e02 = e11 = e12 = e22 = 0.0
+                for ax in range(3):
+                    cx, cy, cz = _qrot(q[0], q[1], q[2], q[3], 1.0 if ax == 0 else 0.0, 1.0 if ax == 1 else 0.0,
+                                       1.0 if ax == 2 else 0.0)
+                    mom = m.body_inertia[bb, ax]
+                    e00 += mom * cx * cx
+                    e01 += mom * cx * cy
+                    e02 += mom * cx * cz
+                    e11 += mom * cy * cy
+                    e12 += mom * cy * cz
+                    e22 += mom * cz * cz
+                e00 += mass * (r2 - rx * rx)
+                e11 += mass * (r2 - ry * ry)
+                e22 += mass * (r2 - rz * rz)
+                e01 -= mass * rx * ry
+                e02 -= mass * rx * rz
+                e12 -= mass * ry * rz
+                _inv3_sym_into(e00, e01, e02, e11, e12, e22, s.joint_pd_mass, j)
+                P = s.joint_pd_mass
+                u00 += P[j, 0, 0]
+                u01 += P[j, 0, 1]
+                u02 += P[j, 0, 2]
+                u11 += P[j, 1, 1]
+                u12 += P[j, 1, 2]
+                u22 += P[j, 2, 2]
+            _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
 
     # Ground contacts: each feature (capsule end sphere, box corner) against the terrain.
     x0 = m.params[P_TERRAIN_X0]
@@ -641,9 +683,9 @@ def _solve_joints(m, s, h, use_bias):
         # -- angular: a locked joint holds its rest relative rotation (rigid, soft like
         #    the ball joint); otherwise the PD servo (Zordan et al. 2005 section 4):
         #    tau = I (kp (theta_d - theta) - kv theta_dot) with kp = w^2, kv = 2 z w,
-        #    I the effective inertia of the joint (I_parent^-1 + I_child^-1)^-1, which
-        #    is the paper's outboard inertia when the parent is much heavier. Integrated
-        #    implicitly as a soft angular constraint, so any gain is stable.
+        #    I the joint inertia from prepare (the outboard body's about the joint,
+        #    reduced with the parent's). Integrated implicitly as a soft angular
+        #    constraint, so any gain is stable.
         locked = m.joint_locked[j] != 0
         pd_hz = s.joint_pd_hz[j]
         if not locked and pd_hz <= 0.0:
@@ -671,8 +713,8 @@ def _solve_joints(m, s, h, use_bias):
         wrx = s.body_angvel[b, 0] - s.body_angvel[a, 0] - twx
         wry = s.body_angvel[b, 1] - s.body_angvel[a, 1] - twy
         wrz = s.body_angvel[b, 2] - s.body_angvel[a, 2] - twz
-        ex, ey, ez = _mat3_vec(s.joint_ang_kinv, j, wrx + bias_rate * cx, wry + bias_rate * cy,
-                               wrz + bias_rate * cz)
+        ex, ey, ez = _mat3_vec(s.joint_ang_kinv if locked else s.joint_pd_mass, j, wrx + bias_rate * cx,
+                               wry + bias_rate * cy, wrz + bias_rate * cz)
         lx = -mass_scale * ex - imp_scale * acc[j, 0]
         ly = -mass_scale * ey - imp_scale * acc[j, 1]
         lz = -mass_scale * ez - imp_scale * acc[j, 2]
@@ -843,13 +885,61 @@ def _integrate_positions(m, s, h):
         s.body_rot[b, 3] = qz * inv
 
 
+@njit(cache=True)
+def _rotate_by(s, b, dx, dy, dz, sign):
+    """q <- normalize(q + 1/2 (0, sign*d) q): a small rotation by the vector d."""
+    qw, qx, qy, qz = s.body_rot[b, 0], s.body_rot[b, 1], s.body_rot[b, 2], s.body_rot[b, 3]
+    ew, ex, ey, ez = _qmul(0.0, 0.5 * sign * dx, 0.5 * sign * dy, 0.5 * sign * dz, qw, qx, qy, qz)
+    qw += ew
+    qx += ex
+    qy += ey
+    qz += ez
+    inv = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+    s.body_rot[b, 0] = qw * inv
+    s.body_rot[b, 1] = qx * inv
+    s.body_rot[b, 2] = qy * inv
+    s.body_rot[b, 3] = qz * inv
+
+
+@njit(cache=True)
+def _project_joints(m, s):
+    """Non-linear Gauss-Seidel position projection of the ball joints (Box2D v2.4's
+    post-stabilization): move the two bodies, by their inverse masses, so the anchors
+    meet. Velocities are untouched, so it adds no energy; it removes the O(h^2) drift
+    that velocity-level sequential impulses leave along chains with large mass ratios."""
+    for j in range(m.joint_parent.shape[0]):
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
+                                     m.joint_anchor_parent[j, 2])
+        pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
+                                     m.joint_anchor_child[j, 2])
+        ex, ey, ez = _mat3_vec(s.joint_kinv, j, pbx - pax, pby - pay, pbz - paz)
+        px, py, pz = -ex, -ey, -ez
+        rax, ray, raz = pax - s.body_pos[a, 0], pay - s.body_pos[a, 1], paz - s.body_pos[a, 2]
+        rbx, rby, rbz = pbx - s.body_pos[b, 0], pby - s.body_pos[b, 1], pbz - s.body_pos[b, 2]
+        for side in range(2):
+            bb = a if side == 0 else b
+            im = m.body_inv_mass[bb]
+            if im == 0.0:
+                continue
+            sign = -1.0 if side == 0 else 1.0
+            rx, ry, rz = (rax, ray, raz) if side == 0 else (rbx, rby, rbz)
+            s.body_pos[bb, 0] += sign * im * px
+            s.body_pos[bb, 1] += sign * im * py
+            s.body_pos[bb, 2] += sign * im * pz
+            tx, ty, tz = _cross(rx, ry, rz, px, py, pz)
+            dx, dy, dz = _mat3_vec(s.body_iinv_world, bb, tx, ty, tz)
+            _rotate_by(s, bb, dx, dy, dz, sign)
+
+
 # ---------------------------------------------------------------------------------------
 # The step
 # ---------------------------------------------------------------------------------------
 
 
 @njit(cache=True)
-def step_kernel(m, s, dt, nsub, niter, nsteps):
+def step_kernel(m, s, dt, nsub, niter, nproject, nsteps):
     """Advance ``nsteps`` steps of ``dt`` seconds, each in ``nsub`` substeps with
     ``niter`` solve and ``niter`` relax iterations. Returns 0, or 1 if the state became
     non-finite (the caller raises; the kernel never hides a NaN)."""
@@ -866,6 +956,8 @@ def step_kernel(m, s, dt, nsub, niter, nsteps):
             for _it in range(niter):
                 _solve_joints(m, s, h, False)
                 _solve_contacts(m, s, h, False)
+            for _it in range(nproject):
+                _project_joints(m, s)
         s.clock[0] += dt
         s.clock[1] += 1.0
     for b in range(s.body_pos.shape[0]):

@@ -52,6 +52,7 @@ class StateArrays(NamedTuple):
     joint_rb: np.ndarray
     joint_kinv: np.ndarray
     joint_ang_kinv: np.ndarray
+    joint_pd_mass: np.ndarray
     joint_imp: np.ndarray
     joint_lock_imp: np.ndarray
     joint_pd_imp: np.ndarray
@@ -96,7 +97,7 @@ class PhysicsState:
             joint_target_rot=np.array(model.joint_rest_rot), joint_target_angvel=z((j, 3)),
             joint_pd_hz=z(j), joint_pd_zeta=np.ones(j), joint_pd_max_torque=z(j),
             body_iinv_world=z((n, 3, 3)), joint_ra=z((j, 3)), joint_rb=z((j, 3)), joint_kinv=z((j, 3, 3)),
-            joint_ang_kinv=z((j, 3, 3)), joint_imp=z((j, 3)), joint_lock_imp=z((j, 3)), joint_pd_imp=z((j, 3)),
+            joint_ang_kinv=z((j, 3, 3)), joint_pd_mass=z((j, 3, 3)), joint_imp=z((j, 3)), joint_lock_imp=z((j, 3)), joint_pd_imp=z((j, 3)),
             feat_active=z(f, np.int32), feat_point=z((f, 3)), feat_r=z((f, 3)), feat_normal=z((f, 3)),
             feat_t1=z((f, 3)), feat_t2=z((f, 3)), feat_sep=z(f), feat_mass=z((f, 4)), feat_imp=z((f, 4)),
             pair_active=z(p, np.int32), pair_point=z((p, 3)), pair_ra=z((p, 3)), pair_rb=z((p, 3)),
@@ -198,7 +199,7 @@ def rotvec_between(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
 
 
 def step(model: PhysicsModel, state: PhysicsState, dt: float, *, substeps: int = 1, iterations: int = 1,
-         steps: int = 1) -> None:
+         steps: int = 1, projections: int = 1) -> None:
     """Advance ``steps`` fixed steps of ``dt`` s (each in ``substeps`` substeps). The
     substep h = dt/substeps should stay near 0.0005-0.002 s for ragdolls (Zordan et al.
     found 0.0005 s needed for good contact); 0.0005 with one substep works, and a game
@@ -209,11 +210,15 @@ def step(model: PhysicsModel, state: PhysicsState, dt: float, *, substeps: int =
     if not (math.isfinite(dt) and dt > 0):
         raise PhysicsError(f"dt must be a positive number of seconds, got {dt}", kind="state", subject="step",
                            field="dt")
+    if int(projections) != projections or projections < 0:
+        raise PhysicsError(f"projections must be >= 0, got {projections}", kind="state", subject="step",
+                           field="projections")
     for name, v in (("substeps", substeps), ("iterations", iterations), ("steps", steps)):
         if int(v) != v or v < 1:
             raise PhysicsError(f"{name} must be a positive integer, got {v}", kind="state", subject="step",
                                field=name)
-    if K.step_kernel(model.arrays, state.arrays, float(dt), int(substeps), int(iterations), int(steps)):
+    if K.step_kernel(model.arrays, state.arrays, float(dt), int(substeps), int(iterations), int(projections),
+                     int(steps)):
         raise SimulationDiverged(f"simulation became non-finite at t = {state.time:.6f} s")
 
 
