@@ -326,13 +326,21 @@ def face(c, head, *, mouth=None, eyes=None, ears=None, eye_rel=(0.75, 0.55, 0.45
          mouth_rel=(1.0, 0.0, -0.45), ear_rel=(-0.3, 0.6, 1.0), suffix=""):
     """Mouth, eyes and ears on a head box whose local +X looks forward.
 
-    ``mouth``, ``eyes`` and ``ears`` are half-extents (or None for none)."""
-    if mouth is not None:
-        c.on("jaw" + suffix, head, ["mouth"], mouth_rel, mouth, push=(mouth[0], 0, 0))
-    if eyes is not None:
-        c.on("eye" + suffix + "_l", head, ["eye"], eye_rel, eyes, push=(0.5 * eyes[0], 0, 0))
-    if ears is not None:
-        c.on("ear" + suffix + "_l", head, ["ear"], ear_rel, ears, push=(0, 0, ears[2]))
+    ``mouth``, ``eyes`` and ``ears`` are half-extents (or None for none). Each ``*_rel`` is
+    a point in the head's frame in units of its half-extents; it is moved out to the face
+    of the box it is nearest (its largest coordinate becomes +-1), and the part sticks out
+    of that face: eyes by half their size, mouths and ears by their full size."""
+    for name, caps, ext, rel, out in (("jaw" + suffix, ["mouth"], mouth, mouth_rel, 1.0),
+                                      ("eye" + suffix + "_l", ["eye"], eyes, eye_rel, 0.5),
+                                      ("ear" + suffix + "_l", ["ear"], ears, ear_rel, 1.0)):
+        if ext is None:
+            continue
+        rel = np.array(rel, float)
+        k = int(np.argmax(np.abs(rel)))
+        rel[k] = math.copysign(1.0, rel[k])
+        push = np.zeros(3)
+        push[k] = rel[k] * out * ext[k]
+        c.on(name, head, caps, rel, ext, push=push)
 
 
 def neck_and_head(c, parent, base, pitch, n, length, cross, head_len, head_cross, head_pitch,
@@ -412,7 +420,6 @@ def humanoid():
     face(c, "head", mouth=(0.015, 0.03, 0.012), eyes=(0.012, 0.014, 0.012),
          ears=(0.015, 0.01, 0.028), eye_rel=(0.9, 0.45, 0.2), mouth_rel=(1.0, 0.0, -0.5),
          ear_rel=(-0.05, 1.0, 0.05))
-    c["ear_l"].pos = c["ear_l"].pos + v(0, 0.01, -0.028)   # ears stick out sideways
     c.chain(["clavicle_l", "upperarm_l", "forearm_l", "hand_l"], "spine3",
             [["limb"], ["limb"], ["limb"], ["limb", "grasper"]],
             [v(0, 0.03, 1.43), v(-0.01, 0.19, 1.43), v(-0.03, 0.235, 1.14),
@@ -435,7 +442,7 @@ def quadruped(name, desc, *, length, zb, back_n, torso, hip_drop, hip_y, fore_y=
     c = Maker(name, desc)
     xs = np.linspace(-0.5 * length, 0.5 * length, back_n + 1)
     zs = zb + arch * np.sin(np.linspace(0.0, math.pi, back_n + 1))
-    pts = [v(x, 0, z) for x, z in zip(xs, zs)]
+    pts = [v(x, 0, z) for x, z in zip(xs, zs, strict=True)]
     names = ["pelvis"] + [f"back{i}" for i in range(1, back_n - 1)] + ["chest"]
     crs = torso if isinstance(torso, list) else [torso] * back_n
     # Authored root: the pelvis (its joint is its own centre); the builder re-roots.
@@ -465,7 +472,7 @@ def quadruped(name, desc, *, length, zb, back_n, torso, hip_drop, hip_y, fore_y=
 @creature
 def dog():
     c = quadruped(
-        "dog", "A dog-sized quadruped, 0.7 m tall, with a three-body tail chain hanging off "
+        "dog", "A dog, 0.85 m tall at the ears, with a three-body tail chain hanging off "
         "the pelvis (tail not part of the spine).",
         length=0.6, zb=0.52, back_n=3, torso=[(0.1, 0.09), (0.1, 0.1), (0.11, 0.115)],
         hip_drop=0.05, hip_y=0.07,
@@ -487,7 +494,7 @@ def dog():
 @creature
 def horse():
     c = quadruped(
-        "horse", "A horse, 2.3 m tall at the ears, with a long head and a three-body tail "
+        "horse", "A horse, 2.2 m tall at the ears, with a long head and a three-body tail "
         "that is part of the spine (the spine runs tail to head).",
         length=1.2, zb=1.35, back_n=4, torso=[(0.22, 0.25), (0.24, 0.28), (0.24, 0.28),
                                                 (0.22, 0.28)],
@@ -513,7 +520,7 @@ def horse():
 @creature
 def grazer():
     c = quadruped(
-        "grazer", "A long-necked grazer, 5 m tall: six neck vertebrae on the spine, two "
+        "grazer", "A long-necked grazer, 4.5 m tall: six neck vertebrae on the spine, two "
         "horn stubs, a thin four-body tail chain.",
         length=1.3, zb=2.3, back_n=3, torso=[(0.24, 0.25), (0.26, 0.3), (0.27, 0.32)],
         hip_drop=0.1, hip_y=0.14, fore_y=0.15, arch=0.0,
@@ -530,7 +537,6 @@ def grazer():
                      ears=(0.03, 0.05, 0.025), eye_rel=(-0.2, 0.9, 0.5),
                      ear_rel=(-0.7, 0.9, 0.5)),
         tail=("chain", 4, 0.8, [70, 80, 85, 85], (0.035, 0.02)))
-    c["ear_l"].pos = c["ear_l"].pos + v(0, 0.05, -0.02)
     c.on("horn_l", "head", ["detail"], (-0.55, 0.35, 1.0), (0.025, 0.025, 0.07),
          push=(0, 0, 0.07))
     c.mirror()
@@ -553,8 +559,8 @@ def tiny():
         head_len=0.036, head_cross=(0.012, 0.011), head_pitch=-10,
         head_caps=("head",),
         face_kw=dict(mouth=(0.003, 0.004, 0.002), eyes=(0.002, 0.002, 0.002),
-                     ears=(0.003, 0.009, 0.016), eye_rel=(0.35, 0.75, 0.55),
-                     mouth_rel=(1.0, 0.0, -0.4), ear_rel=(-0.4, 0.5, 1.0)),
+                     ears=(0.002, 0.007, 0.012), eye_rel=(0.35, 0.75, 0.55),
+                     mouth_rel=(1.0, 0.0, -0.4), ear_rel=(-0.4, 0.8, 1.0)),
         tail=("chain", 5, 0.08, [30, 15, 5, 0, 0], (0.003, 0.0015)))
     c.mirror()
     c.scale_to_height(0.1)   # the ear tips at exactly 0.1 m
@@ -590,7 +596,7 @@ def giant():
 
 @creature
 def hexapod():
-    c = Maker("hexapod", "A six-legged beetle, 0.2 m long: abdomen, three thorax segments "
+    c = Maker("hexapod", "A six-legged beetle, 0.23 m long: abdomen, three thorax segments "
               "each carrying a leg pair, and a head with mandibles and antennae.")
     z = 0.07
     pts = [v(-0.11, 0, z + 0.005), v(-0.04, 0, z), v(-0.01, 0, z), v(0.02, 0, z),
@@ -620,7 +626,7 @@ def hexapod():
 
 @creature
 def spider():
-    c = Maker("spider", "An eight-legged spider, 0.35 m across: cephalothorax with all "
+    c = Maker("spider", "An eight-legged spider, 0.4 m across: cephalothorax with all "
               "eight legs, abdomen, chelicerae, pedipalps that grasp, four eyes.")
     z = 0.09
     c.add("cephalothorax", None, ["spine", "head"], (0.02, 0, z), (0.045, 0.035, 0.022))
@@ -636,7 +642,7 @@ def spider():
     c.on("chelicera_l", "cephalothorax", ["mouth"], (1.0, 0.3, -0.5), (0.006, 0.005, 0.012),
          push=(0.005, 0, -0.008))
     c.chain(["palp_l", "palptip_l"], "cephalothorax", [["limb"], ["limb", "grasper"]],
-            [v(0.06, 0.02, z - 0.005), v(0.09, 0.035, z + 0.01), v(0.12, 0.04, 0.02)],
+            [v(0.06, 0.02, z - 0.005), v(0.09, 0.035, z + 0.01), v(0.12, 0.04, z - 0.03)],
             [0.004, 0.0035])
     profile = [(0, 0, 0), (0.0, 0.45, 0.5), (0.0, 1.15, 0.2), (0.0, 1.75, -0.6), (0, 2.0, -1)]
     for k, (x, yaw) in enumerate(((0.045, 55), (0.03, 18), (0.01, -15), (-0.01, -45))):
@@ -650,7 +656,7 @@ def spider():
 
 @creature
 def centipede():
-    c = Maker("centipede", "A centipede, 1.1 m long with 24 legs: twelve trunk segments "
+    c = Maker("centipede", "A centipede, 1.2 m long with 24 legs: twelve trunk segments "
               "each with a leg pair, head with forcipules and antennae, two tail cerci.")
     n = 12
     z = 0.045
@@ -684,8 +690,8 @@ def centipede():
 
 @creature
 def snake():
-    c = Maker("snake", "A limbless 2 m snake lying straight on the ground: sixteen spine "
-              "bodies, the last five are the tail (tail is part of the spine).")
+    c = Maker("snake", "A limbless 2.1 m snake lying straight on the ground: a head and "
+              "sixteen spine bodies, the last five the tail (tail is part of the spine).")
     n = 16
     xs = [0.9 - 0.12 * i for i in range(n + 1)]
     widths = [0.035 + 0.012 * math.sin(math.pi * min(i / 10, 1.0)) for i in range(n)]
@@ -709,7 +715,7 @@ def snake():
 
 @creature
 def fish():
-    c = Maker("fish", "A fish-like floater, 1 m long, hovering 0.8 m above the ground: "
+    c = Maker("fish", "A fish-like floater, 1.1 m long, hovering 0.55 m above the ground: "
               "no feet; a caudal fin on the spine's back end, pectoral fins as limbs.")
     z = 0.8
     c.add("body2", None, ["spine"], (0.05, 0, z), (0.15, 0.12, 0.2))
@@ -735,7 +741,7 @@ def fish():
 
 @creature
 def bird():
-    c = Maker("bird", "A crow-sized bird, 0.45 m tall: two digitigrade legs, two "
+    c = Maker("bird", "A crow-sized bird, 0.4 m tall, 1.1 m across the wings: two digitigrade legs, two "
               "three-segment wings held half open, a tail fan, a beak as the mouth.")
     c.seg("pelvis", None, ["spine"], v(-0.1, 0, 0.2), v(-0.01, 0, 0.24), (0.05, 0.045), axis=0)
     c["pelvis"].joint = None
@@ -763,7 +769,7 @@ def bird():
 @creature
 def centaur():
     c = quadruped(
-        "centaur", "A centaur, 2.3 m tall: a horse body with four legs and a tail chain, a "
+        "centaur", "A centaur, 2.15 m tall: a horse body with four legs and a tail chain, a "
         "human torso rising from its chest, two arms with hands.",
         length=1.0, zb=1.15, back_n=3, torso=[(0.2, 0.22), (0.22, 0.25), (0.2, 0.22)],
         hip_drop=0.1, hip_y=0.12,
@@ -816,7 +822,7 @@ def tripod():
 
 @creature
 def octopus():
-    c = Maker("octopus", "An octopus-like creature, 1.9 m across: a mantle and head on "
+    c = Maker("octopus", "An octopus-like creature, 1.7 m across: a mantle and head on "
               "the spine and eight four-segment arms spread on the ground, each tip a "
               "grasper; no feet.")
     c.add("body", None, ["spine", "head"], (0, 0, 0.22), (0.16, 0.15, 0.11))
@@ -827,7 +833,7 @@ def octopus():
     heights = [0.13, 0.045, 0.032, 0.022, 0.014]
     cross = [(0.04, 0.035), (0.03, 0.026), (0.022, 0.018), (0.014, 0.011)]
     for k, yaw in enumerate((22.5, 67.5, 112.5, 157.5)):
-        pts = [polar(r, yaw, h) for r, h in zip(radii, heights)]
+        pts = [polar(r, yaw, h) for r, h in zip(radii, heights, strict=True)]
         names = [f"arm{k + 1}a_l", f"arm{k + 1}b_l", f"arm{k + 1}c_l", f"arm{k + 1}tip_l"]
         caps = [["limb"], ["limb"], ["limb"], ["limb", "grasper"]]
         for i, name in enumerate(names):
@@ -856,7 +862,7 @@ def arm(c, parent, names, shoulder, pts, cross, hand_caps=("limb", "grasper")):
 
 @creature
 def twoheaded():
-    c = Maker("twoheaded", "A two-headed biped, 2.5 m tall: the spine ends at the chest "
+    c = Maker("twoheaded", "A two-headed biped, 2.4 m tall: the spine ends at the chest "
               "and each head hangs off it on its own neck limb (heads not on the spine).")
     biped_core(c, hip_z=1.1, hip_y=0.14, leg_profile=[(0, 0, 0), (0.04, 0, -0.5), (0, 0, -1)],
                leg_cross=[0.1, 0.075], foot_ext=(0.16, 0.07, 0.05), foot_fwd=0.06,
@@ -904,7 +910,7 @@ def threearmed():
 
 @creature
 def longspine():
-    c = Maker("longspine", "A tall upright biped, 2.6 m, with a very long S-curved spine of "
+    c = Maker("longspine", "A tall upright biped, 2.55 m, with a very long S-curved spine of "
               "twelve vertebrae, a neck and a head (fourteen spine bodies).")
     biped_core(c, hip_z=0.92, hip_y=0.1, leg_profile=[(0, 0, 0), (0.05, 0, -0.5), (0, 0, -1)],
                leg_cross=[0.06, 0.045], foot_ext=(0.12, 0.045, 0.035), foot_fwd=0.05,
@@ -973,10 +979,9 @@ def forkstrider():
 
 @creature
 def maw():
-    c = Maker("maw", "A headless four-legged maw beast, 1.1 m tall: its mouth sits "
+    c = Maker("maw", "A headless four-legged maw beast, 1.4 m tall: its mouth sits "
               "directly on the front spine body, its eyes on stalks, spikes along its back.")
     z = 0.75
-    xs = [-0.55, -0.25, 0.05, 0.35]
     c.add("rump", None, ["spine"], (-0.4, 0, z), (0.15, 0.26, 0.28))
     spine_line(c, ["middle", "front"], "rump", [v(-0.25, 0, z), v(0.05, 0, z + 0.02),
                                                  v(0.35, 0, z)], [(0.3, 0.32), (0.28, 0.3)])
@@ -985,8 +990,7 @@ def maw():
           0.02)
     c.add("eye_l", "eyestalk_l", ["eye"], (0.15, 0.265, z + 0.58), (0.04, 0.04, 0.04),
           joint=(0.13, 0.25, z + 0.55))
-    for i, x in enumerate(xs[:3]):
-        body = ("rump", "middle", "front")[i] if i else "rump"
+    for i, body in enumerate(("rump", "middle", "front")):
         c.on(f"spike{i + 1}", body, ["spike"], (0.0, 0, 1.0), (0.04, 0.03, 0.09),
              push=(0, 0, 0.08))
     profile_h = [(0, 0, 0), (0.1, 0.1, -0.45), (-0.05, 0.18, -1)]
@@ -1002,7 +1006,7 @@ def maw():
 @creature
 def prehensile():
     c = quadruped(
-        "prehensile", "A monkey-like quadruped, 0.9 m tall at the tail tip, whose six-body "
+        "prehensile", "A monkey-like quadruped, 0.95 m tall at the tail tip, whose six-body "
         "tail chain curls up and ends in a grasper.",
         length=0.45, zb=0.45, back_n=3, torso=[(0.09, 0.08), (0.09, 0.085), (0.1, 0.09)],
         hip_drop=0.04, hip_y=0.07,
@@ -1024,7 +1028,7 @@ def prehensile():
 
 @creature
 def crawler():
-    c = Maker("crawler", "A prone crawling salamander, 0.9 m long and only 0.14 m tall: "
+    c = Maker("crawler", "A prone crawling salamander, 1 m long and only 0.11 m tall: "
               "sprawling legs, a flat head, a five-body tail on the spine resting on the "
               "ground.")
     z = 0.07
@@ -1035,8 +1039,7 @@ def crawler():
     face(c, "head", eyes=(0.008, 0.008, 0.008), eye_rel=(0.2, 0.8, 0.9))
     c.on("jaw", "head", ["mouth"], (0.4, 0.0, -1.0), (0.05, 0.04, 0.006), push=(0, 0, 0.006))
     tpts = [v(-0.2, 0, z)]
-    for i, (dx, zz) in enumerate(((0.1, 0.05), (0.1, 0.036), (0.1, 0.027), (0.09, 0.02),
-                                  (0.09, 0.014))):
+    for dx, zz in ((0.1, 0.05), (0.1, 0.036), (0.1, 0.027), (0.09, 0.02), (0.09, 0.014)):
         tpts.append(v(tpts[-1][0] - dx, 0, zz))
     spine_line(c, [f"tail{i + 1}" for i in range(5)], "pelvis", tpts,
                [(0.045 - 0.007 * i, 0.028 - 0.004 * i) for i in range(5)],
@@ -1054,7 +1057,7 @@ def crawler():
 @creature
 def mixedlegs():
     c = Maker("mixedlegs", "A six-legged stalker with a sloping back: two short front legs "
-              "and four long rear legs (leg lengths differ by more than 2x).")
+              "and four long rear legs (leg lengths differ 2.5x).")
     pts = [v(-0.65, 0, 1.05), v(-0.3, 0, 0.95), v(0.05, 0, 0.8), v(0.35, 0, 0.45)]
     c.seg("rear", None, ["spine"], pts[0], pts[1], (0.18, 0.12), axis=0)
     c["rear"].joint = None
@@ -1105,7 +1108,7 @@ def kangaroo():
 
 @creature
 def gorilla():
-    c = Maker("gorilla", "A knuckle-walking ape, 1.3 m tall on all fours: its hands are "
+    c = Maker("gorilla", "A knuckle-walking ape, 1.4 m tall on all fours: its hands are "
               "both graspers and feet, its head hangs off the chest (not on the spine).")
     c.add("pelvis", None, ["spine"], (-0.2, 0, 0.76), (0.12, 0.2, 0.1),
           rot=quat_between(v(0, 0, 1), v(0.5, 0, 1)))
@@ -1129,7 +1132,7 @@ def gorilla():
 @creature
 def dragon():
     c = quadruped(
-        "dragon", "A winged dragon, 2.6 m tall: four legs, two three-segment wings, a "
+        "dragon", "A winged dragon, 2 m tall with a 4.6 m wingspan: four legs, two three-segment wings, a "
         "four-vertebra neck, horns, back spikes and a six-body tail chain.",
         length=1.3, zb=1.0, back_n=4, torso=[(0.22, 0.2), (0.26, 0.24), (0.26, 0.24),
                                                (0.24, 0.22)],
@@ -1160,7 +1163,7 @@ def dragon():
 
 @creature
 def crab():
-    c = Maker("crab", "A crab, 0.9 m across: eight walking legs splayed sideways, two "
+    c = Maker("crab", "A crab, 1.15 m across: eight walking legs splayed sideways, two "
               "big claws forward, eyes on stalks, a mouth on the carapace.")
     z = 0.2
     c.add("carapace", None, ["spine", "head"], (0, 0, z), (0.14, 0.2, 0.06))
@@ -1202,7 +1205,7 @@ def minimal():
 
 @creature
 def mantis():
-    c = Maker("mantis", "A praying mantis, 0.35 m tall: four walking legs, a raised "
+    c = Maker("mantis", "A praying mantis, 0.3 m tall: four walking legs, a raised "
               "prothorax carrying two folded raptorial arms that grasp, antennae.")
     z = 0.1
     c.add("metathorax", None, ["spine"], (-0.02, 0, z), (0.03, 0.018, 0.016))
@@ -1235,7 +1238,7 @@ def mantis():
 
 @creature
 def trex():
-    c = Maker("trex", "A tyrannosaur, 4.2 m tall: a prone biped whose six-body tail is part "
+    c = Maker("trex", "A tyrannosaur, 4 m tall and 9 m long: a prone biped whose six-body tail is part "
               "of the spine, a huge head with a jaw, tiny two-body arms.")
     z = 2.9
     c.add("pelvis", None, ["spine"], (0, 0, z), (0.5, 0.35, 0.45))
@@ -1245,11 +1248,10 @@ def trex():
     neck_and_head(c, "chest", v(1.8, 0, z + 0.25), 40, 2, 0.8, [(0.28, 0.3), (0.25, 0.25)],
                   1.4, (0.3, 0.32), -10)
     face(c, "head", mouth=(0.55, 0.26, 0.1), eyes=(0.05, 0.05, 0.05),
-         eye_rel=(-0.3, 0.9, 0.7), mouth_rel=(0.1, 0.0, -1.0))
-    c["jaw"].pos = c["jaw"].pos + qrot(c["head"].rot, v(-0.5, 0, -0.1))
+         eye_rel=(-0.3, 0.9, 0.7), mouth_rel=(0.25, 0.0, -1.0))
     tpts = [v(-0.5, 0, z + 0.05)]
-    for i, (dx, dz) in enumerate(((0.8, -0.05), (0.8, -0.15), (0.8, -0.2), (0.75, -0.25),
-                                  (0.7, -0.3), (0.7, -0.3))):
+    for dx, dz in ((0.8, -0.05), (0.8, -0.15), (0.8, -0.2), (0.75, -0.25), (0.7, -0.3),
+                   (0.7, -0.3)):
         tpts.append(tpts[-1] + v(-dx, 0, dz))
     spine_line(c, [f"tail{i + 1}" for i in range(6)], "pelvis", tpts,
                [(0.32 - 0.045 * i, 0.38 - 0.055 * i) for i in range(6)], caps=("spine", "tail"))
@@ -1266,7 +1268,7 @@ def trex():
 def spikebeast():
     c = quadruped(
         "spikebeast", "An armoured 80-body beast: a low five-body back, short neck, "
-        "clubbed seven-body tail chain and fifty spikes (the largest creature file).",
+        "clubbed seven-body tail chain and 51 spikes (the largest creature file).",
         length=2.0, zb=1.0, back_n=5, torso=[(0.45, 0.3), (0.55, 0.38), (0.6, 0.4),
                                                (0.55, 0.38), (0.45, 0.32)],
         hip_drop=0.15, hip_y=0.35, arch=0.1,
@@ -1306,6 +1308,119 @@ def spikebeast():
     for leg in ("shin", "forearm"):
         c.on(f"{leg}spike_l", f"{leg}_l", ["spike"], (0, 1.0, 0.0), (0.03, 0.07, 0.03),
              push=(0, 0.06, 0))
+    c.mirror()
+    return c
+
+
+@creature
+def elephant():
+    c = quadruped(
+        "elephant", "An elephant, 3 m tall: straight pillar legs, big flat ears, two tusks "
+        "and a five-body trunk chain hanging off the head whose tip is a grasper.",
+        length=1.9, zb=2.2, back_n=3, torso=[(0.5, 0.55), (0.6, 0.65), (0.55, 0.6)],
+        hip_drop=0.25, hip_y=0.3,
+        hind_profile=[(0, 0, 0), (0.04, 0, -0.5), (0.0, 0, -1)],
+        hind_names=["thigh", "shin", "hindfoot"],
+        fore_profile=[(0, 0, 0), (-0.02, 0, -0.5), (0.0, 0, -1)],
+        fore_names=["upperarm", "forearm", "forefoot"],
+        leg_cross=[0.2, 0.16], foot_ext=(0.2, 0.18, 0.05), foot_fwd=0.03,
+        neck_n=1, neck_len=0.35, neck_pitch=20, neck_cross=(0.4, 0.4),
+        head_len=0.75, head_cross=(0.4, 0.45), head_pitch=-10,
+        face_kw=dict(mouth=(0.08, 0.15, 0.06), eyes=(0.04, 0.04, 0.04), ears=(0.05, 0.45, 0.5),
+                     eye_rel=(0.3, 1.0, 0.3), mouth_rel=(0.55, 0.0, -1.0),
+                     ear_rel=(-0.6, 1.0, 0.2)),
+        tail=("chain", 2, 0.7, [75, 85], (0.05, 0.03)))
+    head = c["head"]
+    tip = head.pos + qrot(head.rot, v(head.ext[0], 0, -0.3 * head.ext[2]))
+    pts = [tip, tip + v(0.2, 0, -0.3), tip + v(0.3, 0, -0.7), tip + v(0.32, 0, -1.1),
+           tip + v(0.3, 0, -1.45), tip + v(0.36, 0, -1.7)]
+    c.chain(["trunk1", "trunk2", "trunk3", "trunk4", "trunktip"], "head",
+            [["limb"], ["limb"], ["limb"], ["limb"], ["limb", "grasper"]], pts,
+            [0.13, 0.11, 0.09, 0.075, 0.06])
+    c.seg("tusk_l", "head", ["spike"], head.pos + qrot(head.rot, v(0.7 * head.ext[0], 0.3,
+                                                                   -0.8 * head.ext[2])),
+          head.pos + qrot(head.rot, v(1.6 * head.ext[0], 0.34, -1.6 * head.ext[2])), 0.05)
+    c.mirror()
+    return c
+
+
+@creature
+def jellyfish():
+    c = Maker("jellyfish", "A jellyfish, 1.9 m tall, hovering 0.5 m up: a bell on the spine, a mouth "
+              "under it on the spine, eight three-body tentacle chains; no feet, no head.")
+    z = 1.5
+    c.add("bell", None, ["spine"], (0, 0, z + 0.2), (0.3, 0.3, 0.16))
+    c.seg("manubrium", "bell", ["spine"], v(0, 0, z + 0.04), v(0, 0, z - 0.16), (0.07, 0.07))
+    c.on("mouth", "manubrium", ["mouth"], (0, 0, -1.0), (0.05, 0.05, 0.02), push=(0, 0, -0.02))
+    for k, heading in enumerate((0.0, 45.0, 90.0, 135.0, 180.0)):
+        suffix = "_l" if 0.0 < heading < 180.0 else ""
+        tag = {0.0: "front", 180.0: "back"}.get(heading, str(k))
+        r0 = 0.26
+        pts = [polar(r0, heading, z + 0.06), polar(r0 + 0.05, heading, z - 0.3),
+               polar(r0 + 0.02, heading, z - 0.65), polar(r0 + 0.07, heading, z - 1.0)]
+        c.chain([f"tentacle{tag}a{suffix}", f"tentacle{tag}b{suffix}", f"tentacle{tag}c{suffix}"],
+                "bell", ["detail"], pts, [0.02, 0.016, 0.012])
+    c.mirror()
+    return c
+
+
+@creature
+def bat():
+    c = Maker("bat", "A bat standing on its hind legs, 0.3 m tall, wings spread: each "
+              "wing three segments with a clawed thumb that grasps, big ears, a tail "
+              "membrane.")
+    c.seg("pelvis", None, ["spine"], v(-0.01, 0, 0.13), v(0, 0, 0.17), (0.03, 0.025), axis=2)
+    c["pelvis"].joint = None
+    c.seg("chest", "pelvis", ["spine"], v(0, 0, 0.17), v(0.01, 0, 0.24), (0.035, 0.03), axis=2)
+    c.seg("head", "chest", ["spine", "head"], v(0.01, 0, 0.24), v(0.05, 0, 0.27),
+          (0.022, 0.022), axis=0)
+    face(c, "head", mouth=(0.006, 0.01, 0.005), eyes=(0.004, 0.004, 0.004),
+         ears=(0.004, 0.012, 0.02), eye_rel=(0.9, 0.5, 0.3), mouth_rel=(1.0, 0.0, -0.5),
+         ear_rel=(-0.3, 0.6, 1.0))
+    sh = v(0.01, 0.025, 0.23)
+    c.chain(["humerus_l", "radius_l", "finger_l"], "chest", [["limb", "wing"]] * 3,
+            [sh, sh + v(-0.02, 0.07, 0.03), sh + v(-0.03, 0.16, 0.05), sh + v(-0.08, 0.28, 0.0)],
+            [(0.02, 0.004), (0.035, 0.003), (0.05, 0.002)])
+    wrist = sh + v(-0.03, 0.16, 0.05)
+    c.seg("thumb_l", "radius_l", ["limb", "grasper"], wrist, wrist + v(0.02, 0.005, 0.015),
+          0.003)
+    c.leg(["thigh_l", "shin_l", "foot_l"], "pelvis", v(-0.01, 0.018, 0.135),
+          [(0, 0, 0), (0.1, 0.15, -0.5), (0.0, 0.2, -1)], [0.007, 0.005],
+          (0.012, 0.006, 0.003), 0.006)
+    c.seg("uropatagium", "pelvis", ["tail"], v(-0.03, 0, 0.135), v(-0.08, 0, 0.07),
+          (0.005, 0.025), axis=0)
+    c.mirror()
+    return c
+
+
+@creature
+def scorpion():
+    c = Maker("scorpion", "A scorpion, 0.4 m long: eight legs, two pincer arms, and a "
+              "five-segment tail on the spine curling over its back to a stinger.")
+    z = 0.06
+    c.add("prosoma", None, ["spine", "head"], (0.06, 0, z), (0.045, 0.04, 0.02))
+    c.seg("mesosoma1", "prosoma", ["spine"], v(0.015, 0, z), v(-0.05, 0, z), (0.045, 0.02))
+    c.seg("mesosoma2", "mesosoma1", ["spine"], v(-0.05, 0, z), v(-0.12, 0, z + 0.005),
+          (0.04, 0.018))
+    pts = [v(-0.12, 0, z + 0.005)]
+    for pitch in (150, 115, 85, 55, 25):   # the metasoma curls up and forwards
+        pts.append(pts[-1] + 0.045 * dir_pitch(pitch))
+    spine_line(c, [f"tail{i + 1}" for i in range(5)], "mesosoma2", pts,
+               [(0.016 - 0.001 * i, 0.014 - 0.001 * i) for i in range(5)],
+               caps=("spine", "tail"))
+    c.seg("stinger", "tail5", ["tail", "spike"], pts[-1], pts[-1] + v(0.03, 0, -0.025), 0.007)
+    face(c, "prosoma", eyes=(0.004, 0.004, 0.004), eye_rel=(0.5, 0.3, 1.0))
+    c.on("chelicera_l", "prosoma", ["mouth"], (1.0, 0.3, -0.2), (0.006, 0.006, 0.005),
+         push=(0.006, 0, 0))
+    profile = [(0, 0, 0), (0.0, 0.9, 0.5), (0.0, 1.7, 0.1), (0.0, 2.2, -1)]
+    for k, (x, yaw) in enumerate(((0.06, 30), (0.035, 5), (0.0, -20), (-0.035, -45))):
+        c.leg([f"femur{k + 1}_l", f"patella{k + 1}_l", f"tibia{k + 1}_l", f"tarsus{k + 1}_l"],
+              "prosoma" if k < 2 else "mesosoma1", v(x, 0.03, z - 0.01), profile,
+              [0.005, 0.004, 0.003], (0.008, 0.003, 0.002), 0.005, yaw=yaw, foot_yaw=90 + yaw)
+    c.chain(["pedipalp_l", "palpwrist_l", "pincer_l"], "prosoma",
+            [["limb"], ["limb"], ["limb", "grasper"]],
+            [v(0.1, 0.025, z), v(0.12, 0.08, z + 0.015), v(0.16, 0.1, z + 0.01),
+             v(0.22, 0.08, z + 0.0)], [0.007, 0.009, (0.014, 0.01)])
     c.mirror()
     return c
 

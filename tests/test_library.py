@@ -379,6 +379,27 @@ def test_mixed_leg_lengths():
     assert lengths[1] * 1.5 <= lengths[2]
 
 
+def test_more_creatures():
+    """The creatures added beyond the required list keep the shapes they are named for."""
+    elephant = creature("elephant")
+    assert elephant.nleg == 4
+    trunk = next(int(g) for g in elephant.bodies_with("grasper"))
+    assert elephant.has_cap(int(elephant.body_spine_attach[trunk]), "head"), "trunk on the head"
+    jelly = creature("jellyfish")
+    assert jelly.nleg == 0 and jelly.bounds[0, 2] > 0.3 and ncap(jelly, "head") == 0
+    scorpion = creature("scorpion")
+    assert scorpion.nleg == 8 and len(scorpion.bodies_with("grasper")) == 2
+    assert np.all(scorpion.body_is_spine[[b for b in scorpion.bodies_with("tail")
+                                           if not scorpion.has_cap(b, "spike")]])
+    bat = creature("bat")
+    assert bat.nleg == 2 and ncap(bat, "wing") == 6 and len(bat.bodies_with("grasper")) == 2
+    gorilla = creature("gorilla")
+    assert gorilla.nleg == 4 and len(gorilla.bodies_with("grasper")) == 2
+    assert all(gorilla.has_cap(int(g), "foot") for g in gorilla.bodies_with("grasper")), (
+        "the knuckle-walker's hands are feet too")
+    assert creature("minimal").nbody == 8
+
+
 def test_spike_beast_is_the_largest_file():
     c = creature("spikebeast")
     assert c.nbody == 80 and ncap(c, "spike") >= 40
