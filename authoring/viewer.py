@@ -201,7 +201,9 @@ class ViewerWindow:
         fw, fh = window.get_framebuffer_size()
         self.renderer = rd.Renderer(fw, fh, window=window)
         self.camera = self.renderer.frame(self.pages[0])
-        self._help = pyglet.text.Label(HELP_TEXT, x=8, y=8, font_size=10,
+        self._help = pyglet.text.Label(HELP_TEXT, x=8, y=8, anchor_y="bottom", font_size=10,
+                                       multiline=True,
+                                       width=max(window.width - 16, 100),
                                        color=(40, 42, 48, 255))
         self._title = pyglet.text.Label("", x=8, y=window.height - 8, anchor_y="top", font_size=12,
                                         color=(30, 32, 38, 255))
@@ -216,6 +218,7 @@ class ViewerWindow:
             fw, fh = window.get_framebuffer_size()
             self.renderer.resize(fw, fh)
             self._title.y = h - 8
+            self._help.width = max(w - 16, 100)  # the help text wraps to the window
             # Not handled here: pyglet's own handler then sets the viewport and the 2-D
             # projection the help text is drawn with.
 
