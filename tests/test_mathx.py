@@ -615,6 +615,18 @@ def test_fit_hermite5_under_determined(rng):
                                    p0 + t * (p1 - p0), atol=1e-15)
 
 
+def test_chord_params(rng):
+    points = np.array([[0.0, 0, 0], [3.0, 0, 0], [3.0, 4.0, 0], [3.0, 4.0, 0], [3.0, 4.0, 2.0]])
+    np.testing.assert_allclose(mx.chord_params(points), [0.0, 3 / 9, 7 / 9, 7 / 9, 1.0], atol=1e-15)
+    np.testing.assert_array_equal(mx.chord_params(np.zeros((4, 3))), [0.0, 1 / 3, 2 / 3, 1.0])
+    np.testing.assert_array_equal(mx.chord_params(np.ones((1, 3))), [0.0])
+    assert mx.chord_params(np.zeros((0, 3))).shape == (0,)
+    points = rng.normal(size=(9, 2))
+    lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    np.testing.assert_allclose(mx.chord_params(points),
+                               np.concatenate([[0.0], np.cumsum(lengths) / lengths.sum()]), atol=1e-15)
+
+
 def test_auto_tangents(rng):
     times = np.cumsum(rng.uniform(0.1, 1.0, size=6))
     values = rng.normal(size=(6, 2))
@@ -720,6 +732,7 @@ def _twin_cases():
         (mx.auto_tangents, lambda t, x, out: mx.auto_tangents_into(t, x, False, out),
          (times, values), (4, 2)),
         (mx.hermite3_keys, mx.hermite3_keys_into, (times, values, values, 0.7), (2,)),
+        (mx.chord_params, mx.chord_params_into, (pts,), (6,)),
         (lambda *args: np.array(mx.fit_hermite5(*args)), mx.fit_hermite5_into,
          (samples, params, u, v), (4, 3)),
         (mx.quat_mirror_sagittal, mx.quat_mirror_sagittal_into, (a,), (4,)),
@@ -953,6 +966,25 @@ def test_property_slerp_unit_and_finite(a, b, t):
     full = mx.quat_angle(a, b)
     if 0.0 <= t <= 1.0:
         assert mx.quat_angle(a, q) == pytest.approx(t * full, abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, (5, 3), elements=st.floats(-10, 10)), vec4)
+def test_property_transport_keeps_the_tangent_axis(points, rot0):
+    """Whatever local axis rot0 puts on the first tangent stays on the tangent of every
+    point (for polylines without zero or reversing tangents)."""
+    rot0 = _unit(rot0)
+    tangents = np.array([mx.polyline_tangent_into(points, i, np.empty(3)) for i in range(5)])
+    norms = np.linalg.norm(tangents, axis=1)
+    if rot0 is None or np.any(norms < 1e-3):
+        return
+    units = tangents / norms[:, None]
+    if np.any(np.sum(units[1:] * units[:-1], axis=1) < -0.999):
+        return
+    rots = mx.frame_transport(points, tangents[0], rot0)
+    local_axis = mx.quat_rotate_inv(rot0, units[0])
+    for rot, unit in zip(rots, units, strict=True):
+        np.testing.assert_allclose(mx.quat_rotate(rot, local_axis), unit, atol=1e-9)
 
 
 @settings(max_examples=150, deadline=None)

@@ -74,6 +74,8 @@ from engine.mathx.quat import (
 from engine.mathx.spline import (
     auto_tangents,
     auto_tangents_into,
+    chord_params,
+    chord_params_into,
     find_segment,
     fit_hermite5,
     fit_hermite5_into,
@@ -107,12 +109,12 @@ from engine.mathx.spline import (
 )
 
 __all__ = [
-    "auto_tangents", "auto_tangents_into", "find_segment", "fit_hermite5", "fit_hermite5_into",
-    "frame_transport", "frame_transport_into", "hermite3", "hermite3_basis",
-    "hermite3_basis_deriv", "hermite3_basis_deriv_into", "hermite3_basis_into",
-    "hermite3_deriv", "hermite3_deriv_into", "hermite3_into", "hermite3_keys",
-    "hermite3_keys_into", "hermite3_scalar", "hermite3_scalar_deriv", "hermite5",
-    "hermite5_basis", "hermite5_basis_deriv", "hermite5_basis_deriv2",
+    "auto_tangents", "auto_tangents_into", "chord_params", "chord_params_into", "find_segment",
+    "fit_hermite5", "fit_hermite5_into", "frame_transport", "frame_transport_into", "hermite3",
+    "hermite3_basis", "hermite3_basis_deriv", "hermite3_basis_deriv_into",
+    "hermite3_basis_into", "hermite3_deriv", "hermite3_deriv_into", "hermite3_into",
+    "hermite3_keys", "hermite3_keys_into", "hermite3_scalar", "hermite3_scalar_deriv",
+    "hermite5", "hermite5_basis", "hermite5_basis_deriv", "hermite5_basis_deriv2",
     "hermite5_basis_deriv2_into", "hermite5_basis_deriv_into", "hermite5_basis_into",
     "hermite5_deriv", "hermite5_deriv2", "hermite5_deriv2_into", "hermite5_deriv_into",
     "hermite5_deriv_t", "hermite5_into", "hermite5_t", "mat4_from_pose", "mat4_from_pose_into",

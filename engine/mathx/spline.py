@@ -454,6 +454,44 @@ def fit_hermite5_into(points, params, p0, p1, out):
 
 
 @njit(cache=True)
+def chord_params_into(points, out):
+    """out (n,) = chord-length parameters of the polyline ``points`` (n, d): the distance
+    along it from the first point, divided by its total length, so out[0] = 0 and
+    out[n-1] = 1. The usual parameters for fitting a spine spline through the joint
+    positions of its bodies. A polyline of zero length gets even spacing; a single point
+    gets 0."""
+    n = points.shape[0]
+    if n == 0:
+        return out
+    out[0] = 0.0
+    total = 0.0
+    for i in range(1, n):
+        seg = 0.0
+        for k in range(points.shape[1]):
+            diff = points[i, k] - points[i - 1, k]
+            seg += diff * diff
+        total += math.sqrt(seg)
+        out[i] = total
+    if n == 1:
+        return out
+    if total > 0.0 and total < np.inf:
+        for i in range(1, n - 1):
+            out[i] /= total
+    else:
+        for i in range(1, n - 1):
+            out[i] = i / (n - 1)
+    out[n - 1] = 1.0
+    return out
+
+
+@njit(cache=True)
+def chord_params(points):
+    """Chord-length parameters in [0, 1] of the polyline ``points`` (n, d), a new (n,)
+    array; see ``chord_params_into``."""
+    return chord_params_into(points, np.empty(points.shape[0]))
+
+
+@njit(cache=True)
 def fit_hermite5(points, params, p0, p1):
     """Least-squares quintic Hermite end derivatives through ``points`` (m, d) at
     ``params`` (m,) with ends fixed at p0, p1: returns (v0, a0, v1, a1), each (d,). See
