@@ -13,6 +13,13 @@ proximal joint to the next joint with the box's long axis turned onto the bone (
 minimal rotation from the nearest principal axis, so near-vertical legs keep nearly
 identity rotations). Left-side bodies end in ``_l``; ``Maker.mirror`` adds the ``_r``
 copies by negating y (and mirroring rotations: (w, x, y, z) -> (w, -x, y, -z)).
+
+Descriptions say how each tail is built: a "tail chain" is a chain of ``tail`` bodies
+hanging off the back end of the spine; a tail "on/part of the spine" is ``spine`` +
+``tail`` bodies inside the serial spine chain. Sizes in descriptions are measured.
+Rotations are written at full precision and chosen so that their computed norm is
+exactly 1.0 (``exact_unit``): the builder's normalisation then leaves them untouched, and
+load -> save -> load is exact.
 """
 
 from __future__ import annotations
@@ -716,7 +723,7 @@ def snake():
 @creature
 def fish():
     c = Maker("fish", "A fish-like floater, 1.1 m long, hovering 0.55 m above the ground: "
-              "no feet; a caudal fin on the spine's back end, pectoral fins as limbs.")
+              "no feet; the tail is the spine's back end plus a caudal fin hanging off it.")
     z = 0.8
     c.add("body2", None, ["spine"], (0.05, 0, z), (0.15, 0.12, 0.2))
     c.seg("body1", "body2", ["spine"], v(0.2, 0, z), v(0.3, 0, z), (0.11, 0.18))
@@ -741,8 +748,8 @@ def fish():
 
 @creature
 def bird():
-    c = Maker("bird", "A crow-sized bird, 0.4 m tall, 1.1 m across the wings: two digitigrade legs, two "
-              "three-segment wings held half open, a tail fan, a beak as the mouth.")
+    c = Maker("bird", "A crow-sized bird, 0.4 m tall, 1.1 m across the wings: two digitigrade "
+              "legs, two three-segment wings held half open, a two-body tail-fan chain, a beak.")
     c.seg("pelvis", None, ["spine"], v(-0.1, 0, 0.2), v(-0.01, 0, 0.24), (0.05, 0.045), axis=0)
     c["pelvis"].joint = None
     c.seg("chest", "pelvis", ["spine"], v(-0.01, 0, 0.24), v(0.08, 0, 0.3), (0.06, 0.055),
