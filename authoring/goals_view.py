@@ -52,7 +52,7 @@ def goals_scene(animation, creatures, t: float, *, targets: dict | None = None, 
                                   width=1.5, name=f"{c.name} goal offsets"))
         rotated = np.flatnonzero(g.goal_rot_weight > 0)
         if len(rotated):
-            length = 0.12 * float(np.max(c.size))
+            length = 0.3 * float(np.max(c.size))
             tips = np.array([g.goal_pos[b] + length * quat_rotate(np.ascontiguousarray(g.goal_rot[b]),
                                                                     np.array([1.0, 0.0, 0.0])) for b in rotated])
             scene.add(sc.Segments(place(g.goal_pos[rotated]), place(tips), color=ROT_COLOR, width=2.5,
