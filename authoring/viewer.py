@@ -190,11 +190,14 @@ class ViewerWindow:
         self.show_help = True
         self.last_saved: str | None = None
         self.closed = False
+        # A plain double-buffered window: the renderer antialiases in its own multisampled
+        # framebuffer and copies the result in (a blit into a multisampled window
+        # framebuffer is not allowed).
+        config = pyglet.gl.Config(double_buffer=True, sample_buffers=0, samples=0)
         try:
-            config = pyglet.gl.Config(double_buffer=True, sample_buffers=1, samples=4)
             window = pyglet.window.Window(width, height, caption=title, resizable=True,
                                           config=config, visible=visible)
-        except Exception:  # no multisampled config on this display: take the default
+        except pyglet.window.NoSuchConfigException:
             window = pyglet.window.Window(width, height, caption=title, resizable=True,
                                           visible=visible)
         self.window = window
