@@ -1432,6 +1432,36 @@ def scorpion():
     return c
 
 
+@creature
+def inchworm():
+    c = Maker("inchworm", "A footless inchworm, 0.5 m long, mid-stride: twelve spine bodies "
+              "arched up between its two ends resting on the ground, a head with jaws, eyes "
+              "and antennae.")
+    n = 12
+    # The spine follows a raised arch: its ends lie on the ground, its middle is 0.16 m up.
+    r = 0.018
+    xs = np.linspace(-0.22, 0.2, n + 1)
+    pts = [v(x, 0, r + 0.16 * math.sin(math.pi * (x + 0.22) / 0.42) ** 2) for x in xs]
+    c.seg("segment1", None, ["spine"], pts[0], pts[1], (r, r))
+    c["segment1"].joint = None
+    for i in range(1, n):
+        c.seg(f"segment{i + 1}", f"segment{i}", ["spine"], pts[i], pts[i + 1], (r, r))
+    head_end = pts[-1] + v(0.045, 0, 0.0)
+    c.seg("head", f"segment{n}", ["spine", "head"], pts[-1], head_end, (0.02, 0.018), axis=0)
+    face(c, "head", mouth=(0.006, 0.012, 0.005), eyes=(0.004, 0.004, 0.004),
+         eye_rel=(0.5, 0.9, 0.5), mouth_rel=(1.0, 0.0, -0.4))
+    c.on("antenna_l", "head", ["detail"], (0.5, 0.5, 1.0), (0.0015, 0.0015, 0.012),
+         push=(0.0, 0.0, 0.012))
+    # Rest the two ends on the ground exactly.
+    low = c.lowest()
+    for b in c.bodies:
+        b.pos = b.pos - v(0, 0, low)
+        if b.joint is not None:
+            b.joint = b.joint - v(0, 0, low)
+    c.mirror()
+    return c
+
+
 # -- main --------------------------------------------------------------------------------
 
 

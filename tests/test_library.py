@@ -398,6 +398,9 @@ def test_more_creatures():
     assert all(gorilla.has_cap(int(g), "foot") for g in gorilla.bodies_with("grasper")), (
         "the knuckle-walker's hands are feet too")
     assert creature("minimal").nbody == 8
+    inchworm = creature("inchworm")
+    assert inchworm.nleg == 0 and len(inchworm.spine_chain) >= 10
+    assert abs(inchworm.bounds[0, 2]) <= GROUND_TOL, "a footless crawler rests on the ground"
 
 
 def test_spike_beast_is_the_largest_file():
