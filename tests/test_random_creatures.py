@@ -171,6 +171,7 @@ def _check_creature(seed: int) -> None:
         j = int(c.body_mirror[i])
         if j >= 0 and j != i and "asymmetric" not in c.description:
             assert np.array_equal(c.body_rest_pos[j], c.body_rest_pos[i] * flip)
+            assert np.array_equal(c.body_rest_rot[j], c.body_rest_rot[i] * [1.0, -1.0, 1.0, -1.0])
             assert np.array_equal(c.body_extent[j], c.body_extent[i])
     assert np.all(c.body_rest_pos[c.body_side == 0, 1] == 0.0)
 
@@ -252,11 +253,14 @@ def test_nlegs_override_gives_that_many_feet(nlegs):
 
 
 def test_other_overrides():
-    for seed in (3, 4):
-        c = _build_quiet(random_creature_def(seed, nspine=14, narms=6, nheads=3, nlegs=10, height=2.5))
+    for seed in (3, 4, 640540392):
+        # The most the overrides allow: the plan sheds bones and ornaments, whole pairs at a time.
+        c = _build_quiet(random_creature_def(seed, nspine=14, narms=6, nheads=3, nlegs=10, height=2.5,
+                                             symmetric=True))
         counts = c.counts()
         assert (counts["spine"], counts["arms"], counts["heads"], c.nleg) == (14, 6, 3, 10)
         assert c.nbody <= MAX_BODIES
+        assert np.all(c.body_mirror >= 0)
         assert c.height == pytest.approx(2.5, rel=1e-12)
         c = _build_quiet(random_creature_def(seed, nspine=3, nlegs=0, narms=0, nheads=0, height=0.1))
         assert c.counts()["spine"] == 3 and c.nbody >= MIN_BODIES and c.height == pytest.approx(0.1)

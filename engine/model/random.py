@@ -550,8 +550,8 @@ def _fit_body_count(plan: _Plan, c: dict, rng: np.random.Generator) -> None:
     def shed_one() -> bool:
         for kind in ("detail", "spike"):
             parts = [p for p in plan.parts if p.kind == kind and not p.p.get("asymmetry")]
-            if parts:
-                victim = parts[-1]
+            if parts:  # the last one, with its mirror partner
+                victim = parts[-1].mirror_of or parts[-1]
                 plan.parts = [p for p in plan.parts if p is not victim and p.mirror_of is not victim]
                 return True
         heads = [p.head for p in plan.parts if p.head is not None and p.mirror_of is None]
@@ -700,9 +700,13 @@ class _Geometry:
         dx = reach * plan.stance * (p["rel"] - 0.5) * 2.0
         span = math.hypot(reach, splay)
         r0 = min(span * p["thickness"], 0.45 * float(min(b.extents[1], b.extents[2])), 0.25 * reach)
-        r_last = r0 * (1.0 - 0.12 * (part.nseg - 1))
+        # Radius of the bone above the foot (bones taper by 12% each; a split leg's lower
+        # bones start at 80%). The foot is at least that tall, so that bone's box, whose
+        # corners reach sqrt(2) r below the ankle, stays above the ground.
         if part.branch_up:
-            r_last *= 0.8
+            r_last = 0.8 * r0 * (1.0 - 0.12 * (part.nseg - part.branch_up - 1))
+        else:
+            r_last = r0 * (1.0 - 0.12 * (part.nseg - 1))
         fh = r_last * p["foot_height"]  # foot half-height; the ankle sits on top of the foot box
         foot_half = max(span * p["foot_length"], 1.5 * r_last)
         ankle = np.array([hip[0] + dx, hip[1] + splay, 2.0 * fh])
@@ -743,8 +747,7 @@ class _Geometry:
             feet = []
             for tag, a in (("a", ankle + sep), ("b", ankle - sep)):
                 low = _polyline(branch, a, fr[part.branch_up:part.nseg], ref, amplitude, p["pattern"])
-                sub = chain(f"{prefix}_{tag}", bones[-1].name if tag == "a" else bones[part.branch_up - 1].name,
-                            low, part.branch_up, 0.8 * r0)
+                sub = chain(f"{prefix}_{tag}", bones[part.branch_up - 1].name, low, part.branch_up, 0.8 * r0)
                 bones += sub
                 feet.append(foot(f"{prefix}_{tag}_foot", sub[-1].name, a))
             return bones + feet
