@@ -24,6 +24,7 @@ drives it headless by dispatching events.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Sequence
@@ -141,14 +142,8 @@ def scene_pages(scene: sc.Scene) -> list[sc.Scene]:
     """The whole scene, then (for more than one actor) each actor alone with the overlays."""
     pages = [scene]
     if len(scene.actors) > 1:
-        for a in scene.actors:
-            pages.append(sc.Scene(actors=[a], points=scene.points, segments=scene.segments,
-                                  polylines=scene.polylines, labels=scene.labels,
-                                  show_grid=scene.show_grid, show_edges=scene.show_edges,
-                                  show_shadows=scene.show_shadows,
-                                  show_labels=scene.show_labels,
-                                  overlay_hidden_alpha=scene.overlay_hidden_alpha,
-                                  background=scene.background))
+        # Same settings and overlays, one actor, framed automatically.
+        pages += [dataclasses.replace(scene, actors=[a], camera=None) for a in scene.actors]
     return pages
 
 

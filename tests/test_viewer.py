@@ -625,3 +625,17 @@ def test_ground_shadows_darken_once_where_boxes_overlap(renderer):
     scene.show_shadows = False
     renderer.draw(scene, camera=cam)
     np.testing.assert_allclose(_patch(renderer.read_pixels(), px[1], 1), bg, atol=0.01)
+
+
+def test_scene_pages_keep_settings_and_overlays(mini, twist):
+    from authoring.viewer import scene_pages
+
+    pts = sc.Points([[0, 0, 2.0]])
+    scene = sc.Scene(actors=[sc.Actor(mini), sc.Actor(twist, offset=(0, 2, 0))], points=[pts],
+                     camera=sc.Camera(), show_grid=False, view_elevation=0.5)
+    pages = scene_pages(scene)
+    assert len(pages) == 3 and pages[0] is scene
+    for page, actor in zip(pages[1:], scene.actors, strict=True):
+        assert page.actors == [actor] and page.points == [pts]
+        assert page.camera is None and not page.show_grid and page.view_elevation == 0.5
+    assert scene_pages(sc.Scene(actors=[sc.Actor(mini)]))[0].actors[0].creature is mini
