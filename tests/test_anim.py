@@ -8,12 +8,11 @@ import os
 
 import numpy as np
 import pytest
+from test_channels import MINI
 
 from engine.anim import AnimationError, Goals, animation_from_text, bind_all, evaluate_goals, load_animation
 from engine.channels import ground_height
 from engine.model import creature_from_text
-
-from test_channels import MINI
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LIBRARY = sorted(glob.glob(os.path.join(ROOT, "animations", "*.yaml")))
@@ -235,7 +234,7 @@ def test_evaluate_goals_writes_in_place_and_is_deterministic():
     assert [id(x) for x in r1] == ids
     snapshot = [x.copy() for x in out]
     evaluate_goals(a, c, 0.7, out=out, targets={"goal": (1.0, 0.5, 1.0)})
-    for x, y in zip(out, snapshot):
+    for x, y in zip(out, snapshot, strict=True):
         assert np.array_equal(x, y)
     # x = 1 at t = 1 reaches the target
     evaluate_goals(a, c, 1.0, out=out, targets={"goal": (1.0, 0.5, 1.0)})

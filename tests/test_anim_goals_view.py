@@ -5,12 +5,11 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from test_channels import MINI
 
 from authoring.goals_view import TRAIL_SAMPLES, goals_scene
 from engine.anim import evaluate_goals, load_animation
 from engine.model import creature_from_text
-
-from test_channels import MINI
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -24,7 +23,7 @@ def test_goals_scene_places_markers_trails_and_targets_per_creature():
     goal_points = [p for p in scene.points if p.name.endswith("goals")]
     targets = [p for p in scene.points if p.name.endswith("targets")]
     assert len(goal_points) == 2 and len(targets) == 2
-    for actor, pts, tgt in zip(scene.actors, goal_points, targets):
+    for actor, pts, tgt in zip(scene.actors, goal_points, targets, strict=True):
         g = evaluate_goals(a, actor.creature, 1.0, targets={"fruit": (0.8, 0.5, 1.0)})
         posed = np.flatnonzero(g.goal_pos_weight > 0)
         np.testing.assert_allclose(pts.positions, actor.offset + actor.scale * g.goal_pos[posed])

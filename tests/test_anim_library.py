@@ -13,8 +13,8 @@ import pytest
 
 import engine
 from engine.anim import Goals, bind_all, evaluate_goals, load_animation
-from engine.channels import ground_height, specialize
 from engine.channels import _kernels as K
+from engine.channels import ground_height, specialize
 from engine.model import build_creature
 from engine.model.random import random_creature_def
 

@@ -12,8 +12,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from engine.channels import (PositionSpec, RotationSpec, Slot, body_reach, build_slots, frames, generalize,
-                             ground_height, specialize)
+from engine.channels import (
+    PositionSpec,
+    RotationSpec,
+    Slot,
+    body_reach,
+    build_slots,
+    frames,
+    generalize,
+    ground_height,
+    specialize,
+)
 from engine.errors import DataError
 from engine.model import build_creature, creature_from_text
 from engine.model.random import random_creature_def

@@ -3,20 +3,28 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
+from test_channels import MINI
 
-from engine.anim import Key, animation_from_text, remap_channel
-from engine.channels import (PositionSpec, RotationSpec, Slot, auto_tangents, build_slots, ownership,
-                             rotation_auto_tangents, sample_rotation, sample_vector, specialize)
+from engine.anim import animation_from_text, remap_channel
+from engine.channels import (
+    PositionSpec,
+    RotationSpec,
+    Slot,
+    auto_tangents,
+    build_slots,
+    ownership,
+    rotation_auto_tangents,
+    sample_rotation,
+    sample_vector,
+    specialize,
+)
 from engine.channels._kernels import blend_kernel
 from engine.mathx.quat import quat_from_rotvec, quat_mul, quat_slerp
 from engine.model import build_creature, creature_from_text, load_creature
 from engine.model.random import random_creature_def
-
-from test_channels import MINI
 
 
 def hermite_reference(times, values, tout, tin, t):

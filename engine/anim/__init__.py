@@ -6,8 +6,17 @@
     goals = engine.anim.evaluate_goals(anim, creature, t=0.5)
 """
 
-from engine.anim.animation import (BRANCH_PREDICATES, FORMAT_VERSION, SIDE_CONSTRAINTS, Animation, AnimationError,
-                                   ChannelDef, Curves, Event, Key)
+from engine.anim.animation import (
+                                   BRANCH_PREDICATES,
+                                   FORMAT_VERSION,
+                                   SIDE_CONSTRAINTS,
+                                   Animation,
+                                   AnimationError,
+                                   ChannelDef,
+                                   Curves,
+                                   Event,
+                                   Key,
+)
 from engine.anim.evaluate import Goals, SimpleBinding, bind_all, default_target, evaluate_goals
 from engine.anim.fileio import animation_from_text, animation_to_text, load_animation, write_animation
 from engine.anim.remap import remap_channel

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from engine.channels._kernels import (blend_kernel, sample_rotation_into, sample_vector_into,
-                                      specialize_slot_into)
+from engine.channels._kernels import blend_kernel, sample_rotation_into, sample_vector_into, specialize_slot_into
 
 
 @njit(cache=True)

@@ -346,7 +346,7 @@ def _validate_keys(a, ch, kind, keys, width, twidth, fail):
             if abs(n - 1.0) > 1e-9:
                 fail(f"rotation key is not a unit quaternion (norm {n:.12g})", ch, fld, line)
             if prev is not None:
-                d = abs(sum(x * y for x, y in zip(prev.value, k.value)))
+                d = abs(sum(x * y for x, y in zip(prev.value, k.value, strict=True)))
                 if 2.0 * math.acos(min(1.0, d)) > math.pi - 1e-3:
                     fail("consecutive rotation keys turn by 180 degrees or more; add a key between", ch,
                          fld, line)

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import os
 
-from engine.anim.animation import (FORMAT_VERSION, Animation, AnimationError, ChannelDef, Event, Key)
+from engine.anim.animation import FORMAT_VERSION, Animation, AnimationError, ChannelDef, Event, Key
 from engine.channels.modes import LOOKAT_LIMITS, PositionSpec, RotationSpec
 from engine.errors import DataError
 from engine.model.fileio import read_yaml_located

@@ -10,8 +10,6 @@ from engine.anim.animation import AnimationError, ChannelDef, Key
 from engine.channels.remap import remap_position_keys, remap_rotation_keys
 
 
-
-
 def _channel_curves(channel: ChannelDef, loop_length):
     """The channel's packed curves (with its automatic tangents filled in)."""
     from engine.anim.animation import Animation
@@ -19,10 +17,10 @@ def _channel_curves(channel: ChannelDef, loop_length):
     length = max([k.t for k in channel.position_keys + channel.rotation_keys + channel.weight_keys] + [1.0])
     if loop_length is not None:
         length = loop_length
-    ch = dataclasses.replace(channel, position_keys=channel.position_keys or (
-        (Key(0.0, (0.0, 0.0, 0.0)),) if channel.position is not None else ()),
-        rotation_keys=channel.rotation_keys or ((Key(0.0, (1.0, 0.0, 0.0, 0.0)),) if channel.rotation is not None else ()),
-        events=())
+    origin_pos = (Key(0.0, (0.0, 0.0, 0.0)),) if channel.position is not None else ()
+    origin_rot = (Key(0.0, (1.0, 0.0, 0.0, 0.0)),) if channel.rotation is not None else ()
+    ch = dataclasses.replace(channel, position_keys=channel.position_keys or origin_pos,
+                             rotation_keys=channel.rotation_keys or origin_rot, events=())
     return Animation(name="remap", length=float(length), channels=(ch,), loop=loop_length is not None).curves
 
 

@@ -84,8 +84,17 @@ def follow_leader(creature, leader_query, leader_bodies: np.ndarray, query, bodi
     if query.limb == "spine_segment" and _same_query_but_limb(leader_query, query):
         return np.array([int(creature.body_spine_attach[chosen])], np.int32)
     if len(bodies) == len(leader_bodies):
-        k = int(np.flatnonzero(leader_bodies == chosen)[0])
-        return bodies[k : k + 1].astype(np.int32)
+        hit = np.flatnonzero(leader_bodies == chosen)
+        if len(hit):
+            return bodies[int(hit[0]) : int(hit[0]) + 1].astype(np.int32)
+        # A mirror-image variant chose the partner of a selected body: follow the
+        # partner of the follower's body for that selection.
+        original = int(creature.body_mirror[chosen])
+        hit = np.flatnonzero(leader_bodies == original)
+        if original >= 0 and len(hit):
+            follower = int(bodies[int(hit[0])])
+            partner = int(creature.body_mirror[follower])
+            return np.array([partner if partner >= 0 else follower], np.int32)
     raise DataError(
         f"cannot co-vary with its variant group's first channel on creature '{creature.name}': it selects "
         f"{len(bodies)} bodies where the first channel selects {len(leader_bodies)} (use the first channel's "

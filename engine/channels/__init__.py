@@ -3,9 +3,23 @@
 
 from engine.channels.blend import channel_order, ownership
 from engine.channels.curves import auto_tangents, rotation_auto_tangents, sample_rotation, sample_vector
-from engine.channels.modes import (LOOKAT_LIMITS, POSITION_MODES, ROTATION_MODES, SAGITTAL_MIN, SCALE_MODES,
-                                   PositionSpec, RotationSpec, Slot, SlotConstants, body_reach, build_slots,
-                                   frames, generalize, ground_height, specialize)
+from engine.channels.modes import (
+                                   LOOKAT_LIMITS,
+                                   POSITION_MODES,
+                                   ROTATION_MODES,
+                                   SAGITTAL_MIN,
+                                   SCALE_MODES,
+                                   PositionSpec,
+                                   RotationSpec,
+                                   Slot,
+                                   SlotConstants,
+                                   body_reach,
+                                   build_slots,
+                                   frames,
+                                   generalize,
+                                   ground_height,
+                                   specialize,
+)
 from engine.channels.remap import remap_position_keys, remap_rotation_keys
 
 __all__ = ["LOOKAT_LIMITS", "POSITION_MODES", "ROTATION_MODES", "SAGITTAL_MIN", "SCALE_MODES", "PositionSpec",

@@ -8,8 +8,17 @@ Game code uses them too::
     nearest(creature, "grasper", fruit_position)  # the grasper nearest the fruit
 """
 
-from engine.query.query import (AXIS_ZONES, CENTER_ZONE, EXTENTS, LIMB_MODIFIERS, QUERY_TYPES, SPACES,
-                                Query, nearest, select)
+from engine.query.query import (
+                                AXIS_ZONES,
+                                CENTER_ZONE,
+                                EXTENTS,
+                                LIMB_MODIFIERS,
+                                QUERY_TYPES,
+                                SPACES,
+                                Query,
+                                nearest,
+                                select,
+)
 
 __all__ = ["AXIS_ZONES", "CENTER_ZONE", "EXTENTS", "LIMB_MODIFIERS", "QUERY_TYPES", "SPACES", "Query",
            "nearest", "select"]

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import DataError
-from engine.model.caps import CAP_BIT, CAPABILITIES
+from engine.model.caps import CAPABILITIES
 
 #: Half-width of the centre zone as a fraction of the box's half-size along the axis
 #: (1/3: the centre zone is the middle third of the box).
