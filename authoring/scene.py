@@ -29,10 +29,12 @@ distinct shades) over ``AMBIENT``; box edges are drawn in the face colour darken
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from authoring._kernels import pose_fault
 from engine.errors import DataError
 from engine.model.caps import CAP_BIT, CAPABILITIES
 from engine.model.creature import Creature
@@ -193,7 +195,7 @@ class Actor:
         if off.shape[0] != 1:
             raise SceneError("offset must be 3 numbers", subject=name, field="offset")
         self.offset = off[0]
-        if not (isinstance(scale, (int, float, np.floating)) and math.isfinite(scale) and scale > 0):
+        if not (isinstance(scale, numbers.Real) and math.isfinite(scale) and scale > 0):
             raise SceneError(f"scale must be a finite number > 0, got {scale!r}",
                              subject=name, field="scale")
         self.scale = float(scale)
@@ -233,8 +235,6 @@ class Actor:
                              subject=c.name, field="world_rotations")
         np.copyto(self.world_positions, p)
         np.copyto(self.world_rotations, r)
-        from authoring._kernels import pose_fault
-
         body, what = pose_fault(self.world_positions, self.world_rotations)
         if body >= 0:
             np.copyto(self.world_positions, c.body_rest_pos)  # never keep a pose we refused
@@ -271,9 +271,7 @@ class Points:
         self.positions = _points(self.positions, subject=self.name, field_name="positions",
                                  kind="overlay")
         self.colors = _colors(self.color, self.positions.shape[0], self.name)
-        if not (math.isfinite(self.size) and self.size > 0):
-            raise SceneError(f"size must be > 0 pixels, got {self.size!r}", subject=self.name,
-                             field="size", kind="overlay")
+        _check_pixels(self.size, self.name, "size")
 
 
 @dataclass
@@ -294,7 +292,7 @@ class Segments:
             raise SceneError(f"starts {self.starts.shape} and ends {self.ends.shape} differ",
                              subject=self.name, field="ends", kind="overlay")
         self.colors = _colors(self.color, self.starts.shape[0], self.name)
-        _check_width(self.width, self.name)
+        _check_pixels(self.width, self.name, "width")
 
 
 @dataclass
@@ -310,7 +308,7 @@ class Polyline:
     def __post_init__(self) -> None:
         self.points = _points(self.points, subject=self.name, field_name="points", kind="overlay")
         self.colors = _colors(self.color, self.points.shape[0], self.name)
-        _check_width(self.width, self.name)
+        _check_pixels(self.width, self.name, "width")
 
 
 @dataclass
@@ -345,10 +343,11 @@ def _colors(color, n: int, name: str) -> np.ndarray:
     return np.tile(one, (n, 1))
 
 
-def _check_width(width: float, name: str) -> None:
-    if not (isinstance(width, (int, float)) and math.isfinite(width) and width > 0):
-        raise SceneError(f"width must be > 0 pixels, got {width!r}", subject=name, field="width",
-                         kind="overlay")
+def _check_pixels(value, name: str, field_name: str) -> None:
+    """A size or width in pixels: a finite number > 0."""
+    if not (isinstance(value, numbers.Real) and math.isfinite(value) and value > 0):
+        raise SceneError(f"{field_name} must be a number of pixels > 0, got {value!r}",
+                         subject=name, field=field_name, kind="overlay")
 
 
 # -- the scene -------------------------------------------------------------------------------

@@ -129,6 +129,8 @@ def _bad_inputs(c):
          sc.SceneError, ["colour", "[0, 1]"]),
         ("points in 2-D", lambda: sc.Points(np.zeros((4, 2))), sc.SceneError, ["(n, 3)"]),
         ("a zero point size", lambda: sc.Points([[0, 0, 0]], size=0.0), sc.SceneError, ["size"]),
+        ("a text line width", lambda: sc.Segments([[0, 0, 0]], [[1, 0, 0]], width="2"),
+         sc.SceneError, ["width", "pixels"]),
         ("segments with different counts",
          lambda: sc.Segments(np.zeros((3, 3)), np.zeros((2, 3))), sc.SceneError, ["differ"]),
         ("a NaN in a polyline", lambda: sc.Polyline([[0, 0, 0], [np.inf, 0, 0]]),
