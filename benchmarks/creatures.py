@@ -3,9 +3,7 @@
     .venv/bin/python benchmarks/creatures.py [--count 1000] [--seed 0]
 
 Prints a table of per-creature times (generation: ``random_creature_def``; build: the
-validating builder and morphology analysis, ``build_creature``; corners: the part of
-the build spent in the builder's two ``_box_corners`` calls, sampled on the first 100
-creatures), the distribution of
+validating builder and morphology analysis, ``build_creature``), the distribution of
 bodies, spine, legs, arms and heads, the failures with their seed and error (there must
 be none), and ends with one JSON line of figures.
 
@@ -27,7 +25,6 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from engine.model import build_creature  # noqa: E402
-from engine.model.builder import _box_corners  # noqa: E402  (timed: the build's dominant step)
 from engine.model.random import MAX_BODIES, MIN_BODIES, random_creature_def  # noqa: E402
 
 
@@ -55,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
 
-    gen_ms, build_ms, corners_ms, failures = [], [], [], []
+    gen_ms, build_ms, failures = [], [], []
     rows = []
     t_all = time.perf_counter()
     for seed in range(args.seed, args.seed + args.count):
@@ -72,10 +69,6 @@ def main(argv: list[str] | None = None) -> int:
             continue
         gen_ms.append(1e3 * (t1 - t0))
         build_ms.append(1e3 * (t2 - t1))
-        if len(corners_ms) < 100:  # the builder calls _box_corners twice per creature
-            t3 = time.perf_counter()
-            _box_corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
-            corners_ms.append(2e3 * (time.perf_counter() - t3))
         problem = _problem(c)
         if problem:
             failures.append((seed, problem))
@@ -86,15 +79,14 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"random creatures: seeds {args.seed}..{args.seed + args.count - 1}, wall {wall:.1f} s")
     print(f"{'step':<10}{'median ms':>11}{'mean ms':>10}{'p95 ms':>9}{'max ms':>9}")
-    for name, ms in (("generate", gen_ms), ("build", build_ms), ("  corners", corners_ms)):
+    for name, ms in (("generate", gen_ms), ("build", build_ms)):
         a = np.array(ms) if ms else np.zeros(1)
         print(f"{name:<10}{np.median(a):>11.2f}{a.mean():>10.2f}{np.percentile(a, 95):>9.2f}{a.max():>9.2f}")
     figures = {"creatures": args.count, "failures": len(failures),
                "generate_ms_median": round(float(np.median(gen_ms)), 3) if gen_ms else None,
                "generate_ms_mean": round(float(np.mean(gen_ms)), 3) if gen_ms else None,
                "build_ms_median": round(float(np.median(build_ms)), 3) if build_ms else None,
-               "build_ms_mean": round(float(np.mean(build_ms)), 3) if build_ms else None,
-               "build_box_corners_ms_median": round(float(np.median(corners_ms)), 3) if corners_ms else None}
+               "build_ms_mean": round(float(np.mean(build_ms)), 3) if build_ms else None}
     if rows:
         table = np.array(rows, float)
         print(f"\n{'count':<10}{'min':>8}{'median':>8}{'max':>8}")

@@ -20,7 +20,6 @@ from hypothesis import strategies as st
 
 from engine.errors import CreatureError
 from engine.model import build_creature, load_creature
-from engine.model.builder import _box_corners, _qrot
 from engine.model.caps import CAP_BIT
 from engine.model.fileio import creature_def_to_text
 from engine.model.random import (
@@ -28,6 +27,23 @@ from engine.model.random import (
 )
 
 CM = 0.01  # the ground tolerances of the issue: feet within 1 cm, nothing deeper than 1 cm
+
+
+def _qrot(q, v) -> np.ndarray:
+    """Plain reference: v rotated by unit quaternion q = (w, x, y, z), via q v q*."""
+    w, x, y, z = q
+    qv = np.array([-x * v[0] - y * v[1] - z * v[2], w * v[0] + y * v[2] - z * v[1],
+                   w * v[1] + z * v[0] - x * v[2], w * v[2] + x * v[1] - y * v[0]])
+    cw, cx, cy, cz = w, -x, -y, -z  # (q v) q*: keep the vector part
+    return np.array([qv[0] * cx + qv[1] * cw + qv[2] * cz - qv[3] * cy,
+                     qv[0] * cy - qv[1] * cz + qv[2] * cw + qv[3] * cx,
+                     qv[0] * cz + qv[1] * cy - qv[2] * cx + qv[3] * cw])
+
+
+def _box_corners(pos, rot, ext) -> np.ndarray:
+    """Plain reference: the 8 corners of every box, one corner at a time."""
+    signs = [(sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    return np.array([[pos[i] + _qrot(rot[i], np.array(s) * ext[i]) for s in signs] for i in range(len(pos))])
 
 
 # -- invalid inputs -----------------------------------------------------------------------
@@ -142,7 +158,7 @@ def _check_creature(seed: int) -> None:
     assert np.all(c.body_extent > 0)
     assert 0.1 * (1 - 1e-9) <= c.height <= 10.0 * (1 + 1e-9)
 
-    corners = _box_corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
+    corners = _corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
     low = corners[:, :, 2].min(axis=1)
     assert low.min() >= -CM, f"body {c.body_names[int(np.argmin(low))]} is {-low.min():.3g} m below the ground"
     feet = c.bodies_with("foot")
@@ -248,7 +264,7 @@ def test_nlegs_override_gives_that_many_feet(nlegs):
     c = _build_quiet(random_creature_def(100 + nlegs, nlegs=nlegs))
     assert c.nleg == nlegs
     if nlegs:
-        corners = _box_corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
+        corners = _corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
         assert np.abs(corners[c.leg_foot, :, 2].min(axis=1)).max() <= CM
 
 
@@ -278,7 +294,7 @@ def test_other_overrides():
 
 
 def _corners(pos: np.ndarray, rot: np.ndarray, ext: np.ndarray) -> np.ndarray:
-    """Box corners (n, 8, 3), vectorised (the plain per-corner reference is the builder's)."""
+    """Box corners (n, 8, 3), vectorised; checked against the plain ``_box_corners``."""
     w, x, y, z = rot.T
     r = np.stack([
         np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
