@@ -128,7 +128,9 @@ def build_creature(cdef: CreatureDef) -> Creature:
             warnings.warn(
                 f"{path or cdef.name}:{line}: body '{b.name}' field 'rot': quaternion norm is "
                 f"{norm:.6g}, normalised", CreatureWarning, stacklevel=2)
-        rot[i] = q / norm
+        # Leave rotations that are unit to rounding as authored, so save/load round-trips
+        # bit for bit; divide the others by their norm.
+        rot[i] = q if abs(norm - 1.0) <= 8 * np.finfo(float).eps else q / norm
 
     # 2. the tree ----------------------------------------------------------------------
     n = len(bodies)
