@@ -4,8 +4,11 @@ Every function is ``@njit(cache=True)`` and float64. Vector-valued curves take 1
 of any dimension d (3 for positions, 4 for raw quaternion components, 1 for scalars);
 the ``_into`` twins write into a preallocated (d,) array (or view) and allocate nothing.
 The returning versions allocate ``out`` and call the twin, so they agree bit for bit.
-Each twin reads an input's component before writing the same component of ``out``, so
-``out`` may alias an input.
+The curve evaluations (``hermite3_into``, ``hermite5_into`` and their derivatives) read
+an input's component before writing the same component of ``out``, so there ``out``
+may alias an input; ``auto_tangents_into``, ``chord_params_into`` and
+``fit_hermite5_into`` need an ``out`` of their own. The ``_t`` functions return 3-D
+results as tuples for kernels that keep vectors in registers.
 
 Parameters run over [0, 1]: a segment from key time t_a to t_b is evaluated at
 u = (t - t_a) / (t_b - t_a), and tangents measured per second must be multiplied by
