@@ -1061,10 +1061,14 @@ def _describe(plan: _Plan, bodies: list[BodyDef]) -> str:
     arms = caps.count("grasper")
     heads = caps.count("head")
     text = (f"Random creature (seed {plan.seed}): {len(bodies)} bodies, {plan.posture} spine of {plan.nspine}, "
-            f"{legs} legs, {arms} arms, {heads} heads, {plan.height:.3g} m tall, "
+            f"{_plural(legs, 'leg')}, {_plural(arms, 'arm')}, {_plural(heads, 'head')}, {plan.height:.3g} m tall, "
             f"{'walks' if plan.locomotion == 'legs' else plan.locomotion + 's'}; ")
     text += f"asymmetric: {plan.asymmetry}." if plan.asymmetry else "symmetric."
     return text
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 def generate_creatures(seed: int, count: int, out_dir: str | os.PathLike, overwrite: bool = False) -> list[str]:
