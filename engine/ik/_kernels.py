@@ -2,7 +2,8 @@
 
 Everything here takes plain arrays and scalars. Small vectors and quaternions travel as
 tuples (``(x, y, z)``, ``(w, x, y, z)``) so the per-solve path never touches the heap.
-The plan arrives as two flat blobs (``plan_i`` int32, ``plan_f`` float64) and is unpacked
+The plan arrives as flat blobs (``plan_i`` int32, ``plan_f`` float64 and the (k, 3) and
+(k, 4) float64 blobs ``plan_f3``, ``plan_f4``) and is unpacked
 into the ``PlanArrays`` NamedTuple of views inside the kernel: a Python call then costs
 about a microsecond of dispatch instead of one type check per array.
 
@@ -57,7 +58,7 @@ INT_FIELDS = (
     "goal_body",           # (ngoal,) bodies with goals in this plan
     "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
     "goal_lp",             # (ngoal,) limb-phase particle the goal pins, -1 if none
-    "goal_limb_root",      # (ngoal,) limb root of a limb goal (for the aim estimate), else -1
+    "goal_limb_root",      # (ngoal,) limb root of a limb goal, the root (0) for a delegated one, else -1
     "scratch_layout",      # (8,) offsets into the scratch blob (see ``_scratch_views``)
 )
 FLOAT_FIELDS = (
@@ -94,8 +95,9 @@ P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
 P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
 NPARAM = 12
 
-# Scratch blob slots: sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state.
-NSCRATCH = 8
+# Scratch blob slots: sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state,
+# dg_target.
+NSCRATCH = 9
 
 EPS = 1e-12
 
@@ -418,20 +420,8 @@ def _f(pi, pf, k):
     return pf[o:o + pi[h + 1]]
 
 
-@njit(cache=True, inline="always")
-def _f3(pi, pf, k):
-    a = _f(pi, pf, k)
-    return a.reshape((a.shape[0] // 3, 3))
-
-
-@njit(cache=True, inline="always")
-def _f4(pi, pf, k):
-    a = _f(pi, pf, k)
-    return a.reshape((a.shape[0] // 4, 4))
-
-
 @njit(cache=True)
-def unpack(pi, pf):
+def unpack(pi, pf, pf3, pf4):
     """The plan blobs as a ``PlanArrays`` NamedTuple of views (no copies)."""
     return PlanArrays(
         _i(pi, 0), _i(pi, 1), _i(pi, 2), _i(pi, 3), _i(pi, 4), _i(pi, 5), _i(pi, 6), _i(pi, 7),
@@ -442,16 +432,16 @@ def unpack(pi, pf):
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
         _i(pi, 43), _i(pi, 44), _i(pi, 45),
         # floats
-        _f4(pi, pf, 0), _f3(pi, pf, 1), _f3(pi, pf, 2), _f3(pi, pf, 3), _f4(pi, pf, 4),
-        _f3(pi, pf, 5), _f3(pi, pf, 6), _f3(pi, pf, 7),
+        _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
+        _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7),
         _f(pi, pf, 8), _f(pi, pf, 9), _f(pi, pf, 10), _f(pi, pf, 11), _f(pi, pf, 12),
         _f(pi, pf, 13), _f(pi, pf, 14), _f(pi, pf, 15), _f(pi, pf, 16),
-        _f3(pi, pf, 17),
-        _f3(pi, pf, 18), _f3(pi, pf, 19), _f3(pi, pf, 20), _f3(pi, pf, 21),
-        _f(pi, pf, 22), _f4(pi, pf, 23),
-        _f(pi, pf, 24), _f3(pi, pf, 25), _f4(pi, pf, 26),
-        _f3(pi, pf, 27),
-        _f3(pi, pf, 28), _f3(pi, pf, 29), _f4(pi, pf, 30),
+        _f(pi, pf3, 17),
+        _f(pi, pf3, 18), _f(pi, pf3, 19), _f(pi, pf3, 20), _f(pi, pf3, 21),
+        _f(pi, pf, 22), _f(pi, pf4, 23),
+        _f(pi, pf, 24), _f(pi, pf3, 25), _f(pi, pf4, 26),
+        _f(pi, pf3, 27),
+        _f(pi, pf3, 28), _f(pi, pf3, 29), _f(pi, pf4, 30),
         _f(pi, pf, 31), _f(pi, pf, 32), _f(pi, pf, 33), _f(pi, pf, 34), _f(pi, pf, 35),
         _f(pi, pf, 36), _f(pi, pf, 37),
         _f(pi, pf, 38),
@@ -473,7 +463,9 @@ def _scratch_views(P, scratch):
     goal_joint = scratch[lay[5]:lay[5] + 3 * ngoal].reshape((ngoal, 3))
     ch_tan = scratch[lay[6]:lay[6] + 3 * nch].reshape((nch, 3))
     state = scratch[lay[7]:lay[7] + 4]
-    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state
+    ndg = P.dg_body.shape[0]
+    dg_target = scratch[lay[8]:lay[8] + 3 * ndg].reshape((ndg, 3))
+    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target
 
 
 # -- the solve ------------------------------------------------------------------------
@@ -503,7 +495,32 @@ def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_rot_w, goal_jo
 
 
 @njit(cache=True)
-def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_joint, sp_pos, sp_inv, state):
+def _delegated_targets(P, goal_rot, goal_joint, dg_target):
+    """A delegated goal with a rotation fixes its spine body's rotation, so it also gives
+    that spine body's joint a target: the delegated joint's target minus the chord turned
+    by that rotation (the 6-DOF goal converted at the spine body's joint, 4.3.1)."""
+    for d in range(P.dg_body.shape[0]):
+        db = P.dg_body[d]
+        spine_rot = qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db)))
+        set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
+
+
+@njit(cache=True)
+def _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
+    for d in range(P.dg_body.shape[0]):
+        db = P.dg_body[d]
+        w = min(max(goal_pos_w[db], 0.0), 1.0) * min(max(goal_rot_w[db], 0.0), 1.0)
+        if w <= 0.0 or (not first and w >= 1.0):
+            continue
+        i = P.dg_spine_particle[d]
+        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(dg_target, d), w))
+        if first:
+            sp_inv[i] = min(sp_inv[i], 1.0 - w)
+
+
+@njit(cache=True)
+def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
+                 state):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
     goals, spine constraints between branch points) leaves inward, 5 outer iterations,
     watching for buckling and blending toward the rest pose when it happens."""
@@ -523,6 +540,7 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_joint, sp_pos, sp_inv, 
         w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
         sp_inv[i] = 1.0 - w
+    _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True)
     buckle = 0.0
     nsc = P.sc_a.shape[0]
     n_outer = int(prm[P_SPINE_OUTER])
@@ -546,6 +564,7 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_joint, sp_pos, sp_inv, 
                     w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                     if 0.0 < w < 1.0:
                         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
+            _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False)
         if anti:
             b = smoothstep((_buckle_metric(P, root_rot, sp_pos) - prm[P_BUCKLE_ON])
                            / (prm[P_BUCKLE_FULL] - prm[P_BUCKLE_ON]))
@@ -706,14 +725,13 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
 
 
 @njit(cache=True)
-def _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
+def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
     recursively with weighted goal averages, branches), constraint iterations, then
     positions by outward projection and orientations by minimal twist from the rest pose
     (or from two constraint axes where cross-constraints fix the frame)."""
     prm = P.params
-    slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
     nlp = P.lp_body.shape[0]
     # Rest pose of each limb carried rigidly by its posed spine attachment body.
     for i in range(nlp):
@@ -755,7 +773,34 @@ def _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest
             y = qrot(rot, vsub(v3(lp_pos, m), piv))
             y = vadd(y, vscale(ghat, stretch * vdot(y, ghat)))
             set3(lp_pos, m, vadd(piv, y))
-    # Goal particles at their goals (weighted).
+    # Goal particles at their goals (weighted), then the constraint iterations.
+    n_iter = int(prm[P_LIMB_OUTER]) * int(prm[P_LIMB_INNER])
+    _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_iter)
+    _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    # The goal bodies' joint targets were converted from an estimated rotation (4.3.1);
+    # now the rotation is known: convert again and, if that moved a target, let a few
+    # more sweeps follow it from the current pose.
+    moved = 0.0
+    for gi in range(P.goal_body.shape[0]):
+        i = P.goal_lp[gi]
+        if i < 0 or P.lp_parent[i] < 0:
+            continue
+        b = P.goal_body[gi]
+        if goal_pos_w[b] <= 0.0:
+            continue
+        target = vsub(v3(goal_pos, b), qrot(q4(out_rot, b), v3(P.b_joint_offset, b)))
+        moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
+        set3(goal_joint, gi, target)
+    if moved > 1e-9:
+        _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_INNER]) * 2)
+        _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+
+
+@njit(cache=True)
+def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_iter):
+    """Pin the goal particles (weighted) and run ``n_iter`` sweeps leaves inward."""
+    prm = P.params
+    slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
     for gi in range(P.goal_body.shape[0]):
         i = P.goal_lp[gi]
         if i < 0 or P.lp_parent[i] < 0:
@@ -763,9 +808,7 @@ def _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest
         w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
         set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
         lp_inv[i] = 1.0 - w
-    # Constraint iterations, leaves inward.
     nlc = P.lc_a.shape[0]
-    n_iter = int(prm[P_LIMB_OUTER]) * int(prm[P_LIMB_INNER])
     for _it in range(n_iter):
         for c in range(nlc):
             relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
@@ -776,6 +819,14 @@ def _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest
                 w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                 if 0.0 < w < 1.0:
                     set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+
+
+@njit(cache=True)
+def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+    """Limb reconstruction (4.3.3): positions by outward projection to the allowed
+    stretch, orientations by minimal twist from the rest pose, or from two constraint
+    axes where cross-constraints fix the frame; rotation goals blended in."""
+    nlp = P.lp_body.shape[0]
     # Positions: outward projection to the allowed stretch (particles are parents first).
     for i in range(nlp):
         c = P.lp_con[i]
@@ -836,15 +887,16 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
               scratch):
     """One whole solve: goals to joint targets, spine phase, root influence, spine
     reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
-    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state = _scratch_views(P, scratch)
+    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target = _scratch_views(P, scratch)
     rr = qnormalize(root_rot)
     _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_rot_w, goal_joint)
-    _spine_phase(P, root_pos, rr, goal_pos_w, goal_joint, sp_pos, sp_inv, state)
+    _delegated_targets(P, goal_rot, goal_joint, dg_target)
+    _spine_phase(P, root_pos, rr, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv, state)
     rr = _root_influence(P, root_pos, rr, sp_pos)
     _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                        out_pos, out_rot)
     _place_rigid(P, out_pos, out_rot)
-    _limb_phase(P, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
+    _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot)
 
 
@@ -884,11 +936,11 @@ def check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot
 
 
 @njit(cache=True)
-def solve_packed(plan_i, plan_f, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
+def solve_packed(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
                  out_pos, out_rot, scratch):
     """One solve from the plan blobs; see ``engine.ik.solver.solve_ik``. Returns the
     ``check_inputs`` code (-1 = solved)."""
-    P = unpack(plan_i, plan_f)
+    P = unpack(plan_i, plan_f, plan_f3, plan_f4)
     bad = check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w)
     if bad != -1:
         return bad
@@ -899,12 +951,12 @@ def solve_packed(plan_i, plan_f, root_pos, root_rot, goal_pos, goal_rot, goal_po
 
 
 @njit(cache=True)
-def solve_packed_batch(plan_i, plan_f, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w,
+def solve_packed_batch(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w,
                        goal_rot_w, out_pos, out_rot, scratch, bad):
     """Many independent solves sharing one plan (a crowd): inputs stacked on a leading
     axis of length n, one scratch reused in turn. ``bad[c]`` gets character c's
     ``check_inputs`` code; a character with bad input is skipped, the others solved."""
-    P = unpack(plan_i, plan_f)
+    P = unpack(plan_i, plan_f, plan_f3, plan_f4)
     nbad = 0
     for c in range(root_pos.shape[0]):
         bad[c] = check_inputs(P, root_pos[c], root_rot[c], goal_pos[c], goal_rot[c], goal_pos_w[c],

@@ -2,8 +2,8 @@
 creature and one set of goal bodies (Hecker et al. 2008, sections 4.3.1 to 4.3.3).
 
 Built once per (creature, goal bodies, parameters) and cached by ``plan_for``; immutable.
-The arrays the kernels read are packed into two flat blobs (``plan_i`` int32 and
-``plan_f`` float64, see ``engine.ik._kernels.INT_FIELDS`` / ``FLOAT_FIELDS``) and are also
+The arrays the kernels read are packed into flat blobs (``plan_i`` int32, ``plan_f``,
+``plan_f3``, ``plan_f4`` float64, see ``engine.ik._kernels.INT_FIELDS`` / ``FLOAT_FIELDS``) and are also
 readable by name as read-only views: ``plan.arrays.sc_len`` and so on.
 
 Who is solved (section 4.3.1): a body "has IK" when it or a body below it has a goal; the
@@ -140,7 +140,7 @@ class IKPlan:
     for one set of goal bodies. Immutable. Fields:
 
     creature, goal_bodies (tuple, ascending), params (IKParams)
-    plan_i, plan_f        the packed blobs the kernels read
+    plan_i, plan_f, plan_f3, plan_f4   the packed blobs the kernels read (``blobs``)
     arrays                the same as a ``PlanArrays`` NamedTuple of read-only views
     has_ik (nbody,) bool  bodies in the IK sub-tree
     ik_bodies (k,) int32  bodies the solver writes (root, IK spine bodies, delegated
@@ -162,10 +162,12 @@ class IKPlan:
         self.ik_bodies = np.flatnonzero(self.has_ik).astype(np.int32)
         self.free_bodies = np.flatnonzero(~self.has_ik).astype(np.int32)
         self.spine_branch_bodies = tuple(info["branch_bodies"])
-        self.plan_i, self.plan_f, self.scratch_size = _pack(fields)
-        for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.plan_i, self.plan_f):
+        self.plan_i, self.plan_f, self.plan_f3, self.plan_f4, self.scratch_size = _pack(fields)
+        for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.plan_i, self.plan_f, self.plan_f3,
+                  self.plan_f4):
             a.flags.writeable = False
-        self.arrays = K.PlanArrays(**{k: _ro(v) for k, v in _views(self.plan_i, self.plan_f).items()})
+        self.blobs = (self.plan_i, self.plan_f, self.plan_f3, self.plan_f4)
+        self.arrays = K.PlanArrays(**{k: _ro(v) for k, v in _views(*self.blobs).items()})
 
     @property
     def nbody(self) -> int:
@@ -319,6 +321,7 @@ def _build(c, goals: list[int], prm: IKParams):
         limb_root = int(c.limb_root[c.body_limb[g]])
         if g in delegated:
             sp = sp_of[delegated[g]]
+            goal_limb_root[k] = 0  # rotation estimate: aimed along the chord from the root
         else:
             goal_limb_root[k] = limb_root
             sp = sp_of[int(c.body_spine_attach[g])]
@@ -527,7 +530,7 @@ def _build(c, goals: list[int], prm: IKParams):
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
     f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
     nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
-    sizes = [3 * nsp, nsp, 3 * nlp, 3 * nlp, nlp, 3 * ngoal, 3 * nch, 4]
+    sizes = [3 * nsp, nsp, 3 * nlp, 3 * nlp, nlp, 3 * ngoal, 3 * nch, 4, 3 * len(dg)]
     layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
     fields = dict(
         b_parent=i32(parent),
@@ -582,34 +585,41 @@ def _build(c, goals: list[int], prm: IKParams):
 
 
 def _pack(fields):
-    """Pack the named arrays into the two blobs; header = (offset, length) per field."""
+    """Pack the named arrays into the blobs: ints into ``plan_i`` after a header of
+    (offset, rows) per field, floats by width into ``plan_f`` (1-D), ``plan_f3`` (k, 3)
+    and ``plan_f4`` (k, 4), so the kernel's views are plain slices."""
     nh = 2 * (len(K.INT_FIELDS) + len(K.FLOAT_FIELDS))
     ints = [np.ascontiguousarray(fields[name], np.int32).reshape(-1) for name in K.INT_FIELDS]
-    flts = [np.ascontiguousarray(fields[name], np.float64).reshape(-1) for name in K.FLOAT_NAMES]
     header = np.zeros(nh, np.int32)
     off = nh
     for k, a in enumerate(ints):
         header[2 * k], header[2 * k + 1] = off, a.size
         off += a.size
     plan_i = np.concatenate([header] + ints).astype(np.int32)
-    off = 0
-    for k, a in enumerate(flts):
+    blobs = {1: [], 3: [], 4: []}
+    offs = {1: 0, 3: 0, 4: 0}
+    for k, (name, w) in enumerate(K.FLOAT_FIELDS):
+        a = np.ascontiguousarray(fields[name], np.float64).reshape(-1, w) if w > 1 else \
+            np.ascontiguousarray(fields[name], np.float64).reshape(-1)
         h = 2 * (len(K.INT_FIELDS) + k)
-        plan_i[h], plan_i[h + 1] = off, a.size
-        off += a.size
-    plan_f = np.concatenate(flts) if flts else np.zeros(0)
-    return plan_i, np.ascontiguousarray(plan_f, np.float64), fields["_scratch_size"]
+        plan_i[h], plan_i[h + 1] = offs[w], a.shape[0]
+        offs[w] += a.shape[0]
+        blobs[w].append(a)
+    plan_f = np.ascontiguousarray(np.concatenate(blobs[1]))
+    plan_f3 = np.ascontiguousarray(np.concatenate(blobs[3]).reshape(-1, 3))
+    plan_f4 = np.ascontiguousarray(np.concatenate(blobs[4]).reshape(-1, 4))
+    return plan_i, plan_f, plan_f3, plan_f4, fields["_scratch_size"]
 
 
-def _views(plan_i, plan_f):
+def _views(plan_i, plan_f, plan_f3, plan_f4):
     """The fields as numpy views of the blobs, by name (the Python twin of ``unpack``)."""
     out = {}
     for k, name in enumerate(K.INT_FIELDS):
         o, n = int(plan_i[2 * k]), int(plan_i[2 * k + 1])
         out[name] = plan_i[o:o + n]
+    blobs = {1: plan_f, 3: plan_f3, 4: plan_f4}
     for k, (name, w) in enumerate(K.FLOAT_FIELDS):
         h = 2 * (len(K.INT_FIELDS) + k)
         o, n = int(plan_i[h]), int(plan_i[h + 1])
-        a = plan_f[o:o + n]
-        out[name] = a.reshape(-1, w) if w > 1 else a
+        out[name] = blobs[w][o:o + n]
     return out

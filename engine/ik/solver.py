@@ -68,10 +68,8 @@ class IKGoals:
 
 
 def _check_array(name, a, shape):
-    if not isinstance(a, np.ndarray) or a.dtype != np.float64 or a.shape != shape or not a.flags.c_contiguous:
-        got = f"{type(a).__name__}" if not isinstance(a, np.ndarray) else f"{a.dtype} {a.shape}"
-        raise IKError(f"expected a C-contiguous float64 array of shape {shape}, got {got}", field=name,
-                      subject=None)
+    if not _ok(a, shape):
+        raise _bad_array(name, a, shape)
 
 
 def _raise_bad(plan, code, who=""):
@@ -83,22 +81,34 @@ def _raise_bad(plan, code, who=""):
                   subject=plan.creature.body_names[code], field="goals")
 
 
+def _bad_array(name, a, shape):
+    got = f"{type(a).__name__}" if not isinstance(a, np.ndarray) else f"{a.dtype} {a.shape}"
+    return IKError(f"expected a C-contiguous float64 array of shape {shape}, got {got}", field=name, subject=None)
+
+
+def _ok(a, shape):
+    return type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous
+
+
 def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
              scratch: np.ndarray) -> None:
     """Solve one character: writes the IK sub-tree's world poses into ``out_pos``/``out_rot``.
     ``scratch`` comes from ``plan.make_scratch()``. Allocation-free after compilation."""
     n = plan.creature.nbody
-    _check_array("root_pos", root_pos, (3,))
-    _check_array("root_rot", root_rot, (4,))
-    _check_array("goal_pos", goals.goal_pos, (n, 3))
-    _check_array("goal_rot", goals.goal_rot, (n, 4))
-    _check_array("goal_pos_weight", goals.goal_pos_weight, (n,))
-    _check_array("goal_rot_weight", goals.goal_rot_weight, (n,))
-    _check_array("out_pos", out_pos, (n, 3))
-    _check_array("out_rot", out_rot, (n, 4))
-    _check_array("scratch", scratch, (plan.scratch_size,))
-    code = K.solve_packed(plan.plan_i, plan.plan_f, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
-                          goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch)
+    gp, gr, gpw, grw = goals.goal_pos, goals.goal_rot, goals.goal_pos_weight, goals.goal_rot_weight
+    if not (_ok(root_pos, (3,)) and _ok(root_rot, (4,)) and _ok(gp, (n, 3)) and _ok(gr, (n, 4))
+            and _ok(gpw, (n,)) and _ok(grw, (n,)) and _ok(out_pos, (n, 3)) and _ok(out_rot, (n, 4))
+            and _ok(scratch, (plan.scratch_size,))):
+        for name, a, shape in (("root_pos", root_pos, (3,)), ("root_rot", root_rot, (4,)),
+                               ("goal_pos", gp, (n, 3)), ("goal_rot", gr, (n, 4)),
+                               ("goal_pos_weight", gpw, (n,)), ("goal_rot_weight", grw, (n,)),
+                               ("out_pos", out_pos, (n, 3)), ("out_rot", out_rot, (n, 4)),
+                               ("scratch", scratch, (plan.scratch_size,))):
+            if not _ok(a, shape):
+                raise _bad_array(name, a, shape)
+    b = plan.blobs
+    code = K.solve_packed(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot,
+                          scratch)
     if code != -1:
         _raise_bad(plan, code)
 
@@ -123,7 +133,7 @@ def solve_ik_batch(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos, ou
     raise_on_bad = bad is None
     if bad is None:
         bad = np.empty(c, np.int64)
-    nbad = K.solve_packed_batch(plan.plan_i, plan.plan_f, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
+    nbad = K.solve_packed_batch(*plan.blobs, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
                                 goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch, bad)
     if nbad and raise_on_bad:
         k = int(np.flatnonzero(bad != -1)[0])
