@@ -636,6 +636,8 @@ def grid_spec(bounds) -> tuple[np.ndarray, float, int]:
 #: without hiding each other and far rows are not much smaller than near ones.
 ZOO_ELEVATION = math.radians(34.0)
 ZOO_FOV_Y = math.radians(20.0)
+#: Share of a 720-row picture's height two lines of label text take (with some room).
+ZOO_LABEL_SHARE = 0.065
 
 
 def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None = None,
@@ -677,22 +679,35 @@ def layout_zoo(creatures, *, spacing: float | None = None, columns: int | None =
     across = np.abs(sizes[:, 0] * right[0]) + np.abs(sizes[:, 1] * right[1])
     depth = np.abs(sizes[:, 0] * away[0]) + np.abs(sizes[:, 1] * away[1])
     tall = sizes[:, 2] * math.cos(el) + depth * math.sin(el)
-    label_room = 0.4 * float(np.max(sizes)) if labels else 0.0  # two text lines
-    col_step = spacing if spacing is not None else 1.2 * max(float(across.max()),
-                                                             0.6 * float(np.max(sizes)))
+    natural_col = 1.2 * max(float(across.max()), 0.6 * float(np.max(sizes)))
+    col_step = spacing if spacing is not None else natural_col
     if not (math.isfinite(col_step) and col_step > 0):
         raise SceneError(f"spacing must be > 0 m, got {spacing!r}", field="spacing", kind="zoo")
-    row_step_picture = 1.1 * float(tall.max()) + label_room
-    if spacing is not None:  # keep the authored proportion between rows and columns
-        row_step_picture *= spacing / (1.2 * max(float(across.max()), 0.6 * float(np.max(sizes))))
-    row_step = row_step_picture / math.sin(el)
     n = len(creatures)
+    if columns is not None and (not isinstance(columns, numbers.Integral) or columns < 1):
+        raise SceneError(f"columns must be an integer >= 1, got {columns!r}", field="columns",
+                         kind="zoo")
+    body_row = 1.1 * float(tall.max()) * (col_step / natural_col)
+
+    def row_height(nrow: int) -> float:
+        # Labels keep their pixel size while the picture shrinks to fit more rows, so
+        # their share of a row grows with the row count: two lines of text take about
+        # ZOO_LABEL_SHARE of the picture height per row (capped so rows stay visible).
+        if not labels:
+            return body_row
+        share = min(ZOO_LABEL_SHARE * nrow, 0.7)
+        return body_row / (1.0 - share)
+
+    ncol = int(columns) if columns is not None else 1
     if columns is None:
-        columns = max(1, min(n, round(math.sqrt(n * aspect * row_step_picture / col_step))))
-    if int(columns) < 1:
-        raise SceneError(f"columns must be >= 1, got {columns!r}", field="columns", kind="zoo")
-    ncol = int(columns)
+        # Columns that make the grid about `aspect` wide for its height on the picture,
+        # then as few as keep the same row count (no lonely last row).
+        for _ in range(3):
+            nrow = math.ceil(n / ncol)
+            ncol = max(1, min(n, round(math.sqrt(n * aspect * row_height(nrow) / col_step))))
+        ncol = math.ceil(n / math.ceil(n / ncol))
     nrow = math.ceil(n / ncol)
+    row_step = row_height(nrow) / math.sin(el)
     for k, (c, s) in enumerate(zip(creatures, scales, strict=True)):
         row, col = divmod(k, ncol)
         cols_here = min(ncol, n - row * ncol)
