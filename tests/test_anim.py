@@ -275,3 +275,24 @@ def test_ground_relative_channel_touches_the_ground_at_one():
     for h in ("hand_l", "hand_r"):
         b = c.body(h)
         assert g.goal_pos[b, 2] == pytest.approx(ground_height(c, b), abs=1e-12)
+
+
+def test_eat_fruit_cross_fades_from_the_fruit_to_the_mouth():
+    """Two channels of one blend group with crossing weights (section 3.2.3's example): the
+    hand's goal is at the fruit, then halfway between fruit and mouth, then at the mouth."""
+    from engine.channels import PositionSpec, Slot, build_slots, specialize
+
+    c = creature_from_text(MINI)
+    a = load_animation(os.path.join(ROOT, "animations", "eat_fruit.yaml"))
+    fruit = np.array([0.7, 0.6, 1.1])
+    hand, mouth = c.body("hand_l"), c.body("head")
+    slot = build_slots(c, [Slot(hand, PositionSpec("secondary", scale="limb_length"), None, target=0)])
+    near_mouth, _ = specialize(slot, [[0.95, 0, 0]], [[1.0, 0, 0, 0]], [c.body_rest_pos[mouth]])
+    g = evaluate_goals(a, c, 1.0, targets={"fruit": fruit})
+    np.testing.assert_allclose(g.goal_pos[hand], fruit, atol=1e-12)
+    g = evaluate_goals(a, c, 1.5, targets={"fruit": fruit})   # weights 0.5 / 0.5
+    np.testing.assert_allclose(g.goal_pos[hand], 0.5 * (fruit + near_mouth[0]), atol=1e-12)
+    assert g.goal_pos_weight[hand] == pytest.approx(1.0)
+    g = evaluate_goals(a, c, 2.0, targets={"fruit": fruit})
+    np.testing.assert_allclose(g.goal_pos[hand], near_mouth[0], atol=1e-12)
+    assert [e.name for _, e in a.events_between(0.0, a.length)] == ["grab", "eat"]

@@ -35,7 +35,7 @@ FLAG_DIRECTIONAL = 4
 MIN_AXIS = 1e-9
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def position_frame_into(c, i, targets, origin, axes):
     """Origin (3,) and axis columns (3, 3) of slot ``i``'s position frame.
 
@@ -123,7 +123,7 @@ def position_frame_into(c, i, targets, origin, axes):
         axes[2, 2] = sz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lookat_weight(cos_angle, lo, hi):
     """Soft joint limit of the lookat controller: 1 while the angle between the body's rest
     forward axis and the target direction is <= lo, 0 from hi on, a C1 smoothstep between."""
@@ -136,7 +136,7 @@ def lookat_weight(cos_angle, lo, hi):
     return s * s * (3.0 - 2.0 * s)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rotation_frame_into(c, i, targets, front, back):
     """The rotation frame of slot ``i``: S(q) = front * M(q) * back.
 
@@ -185,7 +185,7 @@ def rotation_frame_into(c, i, targets, front, back):
         _scale_from_identity(front, w)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _between_scalars(ux, uy, uz, vx, vy, vz, out):
     # Shortest-arc rotation u -> v (the formula of mathx.quat_between, on scalars so the
     # kernel needs no temporary 3-vectors).
@@ -214,7 +214,7 @@ def _between_scalars(ux, uy, uz, vx, vy, vz, out):
     out[3] = cz / n
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _scale_from_identity(q, t):
     # slerp(identity, q, t) in place: rotation about q's axis by t times its angle.
     w = q[0]
@@ -229,7 +229,7 @@ def _scale_from_identity(q, t):
     q[3] *= k
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def mirror_quat_into(q, sign, out):
     """Sagittal mirror of a rotation when sign < 0 (reflecting y: (w, -x, y, -z)), else copy."""
     out[0] = q[0]
@@ -242,7 +242,7 @@ def mirror_quat_into(q, sign, out):
         out[3] = q[3]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def specialize_slot_into(c, i, targets, qg_pos, qg_rot, out_pos, out_rot, scratch_axes, scratch_q):
     """S for one slot: qg_pos (3,), qg_rot (4,) -> out_pos (3,), out_rot (4,).
     scratch_axes (3, 3) and scratch_q (3, 4) are caller-owned work space."""
