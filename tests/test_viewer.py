@@ -641,3 +641,25 @@ def test_scene_pages_keep_settings_and_overlays(mini, twist):
         assert page.actors == [actor] and page.points == [pts]
         assert page.camera is None and not page.show_grid and page.view_elevation == 0.5
     assert scene_pages(sc.Scene(actors=[sc.Actor(mini)]))[0].actors[0].creature is mini
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_random_creatures_draw_inside_their_bounds(seed):
+    from engine.model import build_creature
+    from engine.model.random import random_creature_def
+
+    c = build_creature(random_creature_def(seed))
+    a = sc.Actor(c)
+    np.testing.assert_allclose(a.world_bounds(), c.bounds, atol=1e-9)
+    g = geo.SceneGeometry()
+    ranges = g.build(sc.Scene(actors=[a], show_shadows=False, show_grid=False))
+    faces = next(r for r in ranges if r.kind == geo.FACES)
+    pts = g.verts[faces.first:faces.first + faces.count, :3].astype(float)
+    size = float(np.max(c.size))
+    # Drawn boxes are at most DRAW_INSET smaller than the real ones.
+    assert np.all(pts.min(axis=0) >= c.bounds[0] - 1e-5 * size)
+    assert np.all(pts.max(axis=0) <= c.bounds[1] + 1e-5 * size)
+    slack = sc.DRAW_INSET * float(np.max(c.body_extent)) * 2 + 1e-5 * size
+    np.testing.assert_allclose(pts.min(axis=0), c.bounds[0], atol=slack)
+    np.testing.assert_allclose(pts.max(axis=0), c.bounds[1], atol=slack)
