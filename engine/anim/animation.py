@@ -271,8 +271,12 @@ def validate_animation(a: Animation) -> None:
     path = a.path
 
     def fail(msg, ch: ChannelDef | None = None, fld: str | None = None, line: int | None = None):
-        raise AnimationError(msg, path=path, line=line or (ch.line if ch is not None and ch.line else None),
-                             subject=ch.name if ch is not None else None, field=fld)
+        if line is None and ch is not None:
+            # the line of the field itself when the loader recorded it, else the channel's
+            lines = getattr(ch, "_field_lines", {})
+            line = lines.get(fld.split(".")[0]) if fld else None
+            line = line or ch.line or None
+        raise AnimationError(msg, path=path, line=line, subject=ch.name if ch is not None else None, field=fld)
 
     if not isinstance(a.name, str) or not a.name:
         fail("an animation needs a non-empty name", fld="name")

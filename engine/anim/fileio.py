@@ -242,7 +242,9 @@ def _channel(item, ctx):
         for kind, sub in keys.items():
             kw["events" if kind == "events" else f"{kind}_keys"] = _keys(sub, ctx, kind)
     ctx.channel = None
-    return ChannelDef(**kw)
+    channel = ChannelDef(**kw)
+    object.__setattr__(channel, "_field_lines", {key: sub.line for key, sub in m.items()})
+    return channel
 
 
 def parse_animation_text(text: str, path: str | None = None) -> Animation:
