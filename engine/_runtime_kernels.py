@@ -1,0 +1,188 @@
+"""Kernels of the per-frame runtime (``engine.runtime``): every array has a leading axis
+over the characters of one creature stack, so a character alone (a stack of one) and a
+crowd of a thousand run the same code, one call per stage.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from engine.anim._kernels import goals_kernel
+from engine.ik._kernels import solve_packed
+from engine.jiggle._kernels import jiggle_kernel
+from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into
+
+
+@njit(cache=True)
+def fill_body_rows(tables, n_ext, char_pos, pair_char):
+    """Body rows of each pair's target table: that character's current pose."""
+    for k in range(pair_char.shape[0]):
+        c = pair_char[k]
+        for b in range(char_pos.shape[1]):
+            for j in range(3):
+                tables[k, n_ext + b, j] = char_pos[c, b, j]
+
+
+@njit(cache=True)
+def goals_pairs(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
+                sg_pos, sg_rot, sg_pw, sg_rw):
+    """Sample, specialize and blend one bound variant for each (character, slot) pair
+    playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``."""
+    for k in range(times.shape[0]):
+        c = pair_char[k]
+        s = pair_slot[k]
+        goals_kernel(cv, consts, pos_on, rot_on, tables[k], times[k], rest_pos, rest_rot, scratch,
+                     sg_pos[c, s], sg_rot[c, s], sg_pw[c, s], sg_rw[c, s])
+
+
+@njit(cache=True)
+def blend_layers(active, effective, layer, nlayer, sg_pos, sg_rot, sg_pw, sg_rw, rest_pos, rest_rot,
+                 lay_pos, lay_rot, lay_pw, lay_rw, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot):
+    """Blend the playing clips of every character into one set of goals.
+
+    Within a layer clips share by weight: for each body and DOF the goal is the mean of
+    the clips' goals weighted by (effective clip weight x the clip's own goal weight), and
+    the layer's goal weight is that sum, capped at 1. Layers then stack bottom to top:
+    a layer with goal weight a moves the goal a of the way to its own (lerp / slerp) and
+    the weight becomes w + a (1 - w). The root's goal is taken out and applied to the
+    root pose (``root_pos``/``root_rot``, character space; rest where nothing poses it):
+    the root is forward-kinematically controlled, never an IK goal.
+    """
+    nchar, nslot = active.shape
+    nbody = rest_pos.shape[0]
+    tmp = np.empty(4)
+    for c in range(nchar):
+        for b in range(nbody):
+            goal_pw[c, b] = 0.0
+            goal_rw[c, b] = 0.0
+            for j in range(3):
+                goal_pos[c, b, j] = rest_pos[b, j]
+            for j in range(4):
+                goal_rot[c, b, j] = rest_rot[b, j]
+        for L in range(nlayer):
+            used = False
+            for s in range(nslot):
+                if not active[c, s] or layer[c, s] != L or not (effective[c, s] > 0.0):
+                    continue
+                if not used:
+                    for b in range(nbody):
+                        lay_pw[b] = 0.0
+                        lay_rw[b] = 0.0
+                        for j in range(3):
+                            lay_pos[b, j] = 0.0
+                    used = True
+                e = effective[c, s]
+                for b in range(nbody):
+                    wp = e * sg_pw[c, s, b]
+                    if wp > 0.0:
+                        for j in range(3):
+                            lay_pos[b, j] += wp * sg_pos[c, s, b, j]
+                        lay_pw[b] += wp
+                    wr = e * sg_rw[c, s, b]
+                    if wr > 0.0:
+                        if lay_rw[b] == 0.0:
+                            for j in range(4):
+                                lay_rot[b, j] = sg_rot[c, s, b, j]
+                        else:
+                            quat_slerp_into(lay_rot[b], sg_rot[c, s, b], wr / (lay_rw[b] + wr), tmp)
+                            for j in range(4):
+                                lay_rot[b, j] = tmp[j]
+                        lay_rw[b] += wr
+            if not used:
+                continue
+            for b in range(nbody):
+                wp = lay_pw[b]
+                if wp > 0.0:
+                    a = min(wp, 1.0)
+                    g = goal_pw[c, b]
+                    for j in range(3):
+                        p = lay_pos[b, j] / wp
+                        goal_pos[c, b, j] = p if g == 0.0 else goal_pos[c, b, j] + a * (p - goal_pos[c, b, j])
+                    goal_pw[c, b] = a if g == 0.0 else g + a * (1.0 - g)
+                wr = lay_rw[b]
+                if wr > 0.0:
+                    a = min(wr, 1.0)
+                    g = goal_rw[c, b]
+                    if g == 0.0:
+                        for j in range(4):
+                            goal_rot[c, b, j] = lay_rot[b, j]
+                        goal_rw[c, b] = a
+                    else:
+                        quat_slerp_into(goal_rot[c, b], lay_rot[b], a, tmp)
+                        for j in range(4):
+                            goal_rot[c, b, j] = tmp[j]
+                        goal_rw[c, b] = g + a * (1.0 - g)
+        # The root: blend from rest toward its goal, then take it out of the IK goals.
+        wp = goal_pw[c, 0]
+        for j in range(3):
+            root_pos[c, j] = rest_pos[0, j] + wp * (goal_pos[c, 0, j] - rest_pos[0, j])
+        quat_slerp_into(rest_rot[0], goal_rot[c, 0], goal_rw[c, 0], tmp)
+        for j in range(4):
+            root_rot[c, j] = tmp[j]
+        goal_pw[c, 0] = 0.0
+        goal_rw[c, 0] = 0.0
+
+
+@njit(cache=True)
+def solve_indexed(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw,
+                  out_pos, out_rot, scratch, bad):
+    """IK for the characters ``idx`` of a stack that share one plan. ``bad[c]`` gets the
+    input check code (-1 solved); a bad character keeps last frame's pose."""
+    nbad = 0
+    for k in range(idx.shape[0]):
+        c = idx[k]
+        bad[c] = solve_packed(plan_i, plan_f, plan_f3, plan_f4, root_pos[c], root_rot[c], goal_pos[c], goal_rot[c],
+                              goal_pw[c], goal_rw[c], out_pos[c], out_rot[c], scratch)
+        if bad[c] != -1:
+            nbad += 1
+    return nbad
+
+
+@njit(cache=True)
+def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_pos, world_rot,
+                      body_parent, body_local_rot, body_local_joint, body_joint_offset,
+                      jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep,
+                      jig_err, jig_err_vel, jig_target, jig_target_vel, jig_active, dt, simulate):
+    """World pose of every body: the driven (IK) bodies carried by the character's world
+    placement, then the others by Jiggles in world space (so walking makes ears bounce)."""
+    nchar, nbody = driven.shape
+    v = np.empty(3)
+    for c in range(nchar):
+        for b in range(nbody):
+            if driven[c, b]:
+                quat_rotate_into(place_rot[c], char_pos[c, b], v)
+                for j in range(3):
+                    world_pos[c, b, j] = place_pos[c, j] + v[j]
+                quat_mul_into(place_rot[c], char_rot[c, b], world_rot[c, b])
+        jiggle_kernel(body_parent, body_local_rot, body_local_joint, body_joint_offset, jig_lever, jig_omega,
+                      jig_zeta, jig_max_err, jig_sleep, driven[c], world_pos[c], world_rot[c], jig_err[c],
+                      jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c], dt, simulate)
+
+
+@njit(cache=True)
+def skinning_into(world_pos, world_rot, inv_bind, out):
+    """Skinning matrices (nbody, 4, 4): world transform times the inverse rest (bind)
+    transform, so a vertex at rest maps to where its body is now."""
+    m = np.empty((4, 4))
+    for b in range(world_pos.shape[0]):
+        w, x, y, z = world_rot[b, 0], world_rot[b, 1], world_rot[b, 2], world_rot[b, 3]
+        m[0, 0] = 1 - 2 * (y * y + z * z)
+        m[0, 1] = 2 * (x * y - w * z)
+        m[0, 2] = 2 * (x * z + w * y)
+        m[1, 0] = 2 * (x * y + w * z)
+        m[1, 1] = 1 - 2 * (x * x + z * z)
+        m[1, 2] = 2 * (y * z - w * x)
+        m[2, 0] = 2 * (x * z - w * y)
+        m[2, 1] = 2 * (y * z + w * x)
+        m[2, 2] = 1 - 2 * (x * x + y * y)
+        for i in range(3):
+            m[i, 3] = world_pos[b, i]
+            m[3, i] = 0.0
+        m[3, 3] = 1.0
+        for i in range(4):
+            for j in range(4):
+                acc = 0.0
+                for k in range(4):
+                    acc += m[i, k] * inv_bind[b, k, j]
+                out[b, i, j] = acc

@@ -1,0 +1,569 @@
+"""The per-frame runtime: ``Character`` and ``Crowd``.
+
+A game makes a ``Character`` per creature on screen, plays animations on it and calls
+``tick(dt)`` once a frame; ``world_positions (nbody, 3)`` and ``world_rotations
+(nbody, 4)`` then hold every body's pose (and ``skinning_matrices()`` the 4x4 matrices a
+renderer skins with). A ``Crowd`` ticks many characters through the same kernels: the
+characters of one creature live in rows of shared arrays (a *stack*), so each stage is
+one kernel call per creature (and per animation variant, and per IK plan), never one per
+character.
+
+One frame (Hecker et al. 2008, section 4; ``../shared/DESIGN.md``)::
+
+    player      advance clips, layers, queue          one kernel over the stack
+    sample      curves of each playing clip at its time
+    specialize  S per bound body                       one kernel per bound variant
+    blend       clips by weight, layers bottom to top  one kernel over the stack
+    gait        (the gait stage: until locomotion lands the root follows its channel)
+    ik          two-phase particle IK                  one kernel per IK plan
+    jiggle      passive secondary motion               } one kernel over the stack
+    output      world placement of every body          }
+
+Every stage can be switched off (``character.stages.ik = False``) for tests and the
+viewer: with ``sample`` off the goals stay as they are, with ``ik`` off the bodies take
+the root-relative rest pose carried by the root, with ``jiggle`` off the passive bodies
+follow their parents rigidly. Nothing is allocated per frame after the first frame of a
+new combination of playing clips (binding and IK plans are built once and cached).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine import _runtime_kernels as RK
+from engine.anim.animation import Animation
+from engine.anim.binding import Binding, BoundVariant, bind
+from engine.anim.evaluate import default_target, make_scratch
+from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
+from engine.anim.variants import Variant
+from engine.errors import MenagerieError
+from engine.ik.plan import DEFAULT_PARAMS, IKParams, plan_for
+from engine.jiggle.rig import JiggleRig
+from engine.model.creature import Creature
+
+STAGES = ("player", "sample", "blend", "gait", "ik", "jiggle", "output")
+
+
+@dataclass
+class Stages:
+    """Switches for the stages of ``tick`` (all on by default)."""
+
+    player: bool = True
+    sample: bool = True      # sample + specialize
+    blend: bool = True
+    gait: bool = True
+    ik: bool = True
+    jiggle: bool = True
+    output: bool = True
+
+
+class _Clip:
+    """What the runtime attaches to a playing clip: the bound variant and its buffers."""
+
+    __slots__ = ("animation", "binding", "bound", "scratch", "table", "n_ext")
+
+    def __init__(self, animation: Animation, binding: Binding, bound: BoundVariant) -> None:
+        self.animation = animation
+        self.binding = binding
+        self.bound = bound
+        self.scratch = make_scratch(animation, bound)
+        self.n_ext = len(bound.target_names)
+        self.table = np.zeros((1, self.n_ext + binding.creature.nbody, 3))
+
+
+class _Stack:
+    """The per-frame arrays of ``n`` characters of one creature (leading axis n)."""
+
+    def __init__(self, creature: Creature, n: int, nslot: int, nlayer: int) -> None:
+        nb = creature.nbody
+        self.creature = creature
+        self.n = n
+        self.player = PlayerArrays.allocate(n, nslot, nlayer)
+        self.sg_pos = np.zeros((n, nslot, nb, 3))
+        self.sg_rot = np.zeros((n, nslot, nb, 4))
+        self.sg_pw = np.zeros((n, nslot, nb))
+        self.sg_rw = np.zeros((n, nslot, nb))
+        self.goal_pos = np.zeros((n, nb, 3))
+        self.goal_rot = np.zeros((n, nb, 4))
+        self.goal_pw = np.zeros((n, nb))
+        self.goal_rw = np.zeros((n, nb))
+        self.root_pos = np.tile(creature.body_rest_pos[0], (n, 1))
+        self.root_rot = np.tile(creature.body_rest_rot[0], (n, 1))
+        self.place_pos = np.zeros((n, 3))
+        self.place_rot = np.zeros((n, 4))
+        self.place_rot[:, 0] = 1.0
+        self.char_pos = np.tile(creature.body_rest_pos, (n, 1, 1))
+        self.char_rot = np.tile(creature.body_rest_rot, (n, 1, 1))
+        self.world_pos = self.char_pos.copy()
+        self.world_rot = self.char_rot.copy()
+        self.driven = np.zeros((n, nb), np.bool_)
+        self.driven[:, 0] = True
+        self.jig_err = np.zeros((n, nb, 3))
+        self.jig_err_vel = np.zeros((n, nb, 3))
+        self.jig_target = np.zeros((n, nb, 3))
+        self.jig_target_vel = np.zeros((n, nb, 3))
+        self.jig_active = np.zeros((n, nb), np.bool_)
+        self.ik_bad = np.full(n, -1, np.int64)
+        # blend scratch, one set reused across characters
+        self.lay_pos = np.zeros((nb, 3))
+        self.lay_rot = np.zeros((nb, 4))
+        self.lay_pw = np.zeros(nb)
+        self.lay_rw = np.zeros(nb)
+
+    _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
+                 "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
+                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad")
+
+    def copy_row(self, dst: int, src: _Stack, row: int) -> None:
+        for name in self._PER_CHAR:
+            getattr(self, name)[dst] = getattr(src, name)[row]
+        self.player.rows(dst, dst + 1).copy_from(src.player.rows(row, row + 1))
+
+
+class Character:
+    """One animated creature in the world (see the module docstring).
+
+    >>> char = Character(engine.load_creature("creatures/humanoid.yaml"))
+    >>> char.play(engine.load_animation("animations/wave.yaml"))
+    >>> char.tick(1 / 60); char.world_positions
+    """
+
+    def __init__(self, creature: Creature, *, position=(0.0, 0.0, 0.0), heading: float = 0.0,
+                 nslot: int = 8, nlayer: int = 4, ik_params: IKParams = DEFAULT_PARAMS) -> None:
+        if not isinstance(creature, Creature):
+            raise TypeError(f"Character needs a Creature, got {type(creature).__name__}")
+        self.creature = creature
+        self.stages = Stages()
+        self.player = Player(nslot, nlayer)
+        self.ik_params = ik_params
+        self.jiggle_rig = JiggleRig.for_creature(creature)
+        self._targets: dict[str, np.ndarray] = {}
+        self._plan_key: tuple | None = None
+        self._plan = None
+        self._scratch_ik = None
+        self._stack = _Stack(creature, 1, nslot, nlayer)
+        self._row = 0
+        self._bind_views()
+        self.set_placement(position, heading)
+        n = creature.nbody
+        self._inv_bind = np.zeros((n, 4, 4))
+        for b in range(n):
+            self._inv_bind[b] = np.linalg.inv(_pose_matrix(creature.body_rest_pos[b], creature.body_rest_rot[b]))
+        self._skin = np.zeros((n, 4, 4))
+        self._frame = 0
+        self.tick_stage_seconds: dict[str, float] | None = None   # set by the benchmark
+
+    # -- views into the stack ----------------------------------------------------------
+
+    def _bind_views(self) -> None:
+        s, r = self._stack, self._row
+        self.player.arrays = s.player.rows(r, r + 1)
+        self.world_positions = s.world_pos[r]      # (nbody, 3) world, m
+        self.world_rotations = s.world_rot[r]      # (nbody, 4) world, w-first
+        self.pose_positions = s.char_pos[r]        # (nbody, 3) character space
+        self.pose_rotations = s.char_rot[r]
+
+    def _move_to(self, stack: _Stack, row: int) -> None:
+        stack.copy_row(row, self._stack, self._row)
+        self._stack, self._row = stack, row
+        self._bind_views()
+
+    # -- placement and targets ---------------------------------------------------------
+
+    def set_placement(self, position=None, heading: float | None = None, rotation=None) -> None:
+        """Place the character frame in the world: ``position`` (3,), and a ``heading``
+        (radians about +Z) or a full ``rotation`` quaternion."""
+        s, r = self._stack, self._row
+        if position is not None:
+            p = np.asarray(position, dtype=float)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise ValueError(f"position must be 3 finite numbers, got {position!r}")
+            s.place_pos[r] = p
+        if heading is not None and rotation is not None:
+            raise ValueError("give a heading or a rotation, not both")
+        if heading is not None:
+            if not math.isfinite(heading):
+                raise ValueError(f"heading must be finite, got {heading!r}")
+            s.place_rot[r] = (math.cos(heading / 2), 0.0, 0.0, math.sin(heading / 2))
+        if rotation is not None:
+            q = np.asarray(rotation, dtype=float)
+            n = float(np.linalg.norm(q)) if q.shape == (4,) else 0.0
+            if not (n > 1e-9 and np.isfinite(n)):
+                raise ValueError(f"rotation must be a non-zero finite quaternion (w, x, y, z), got {rotation!r}")
+            s.place_rot[r] = q / n
+
+    @property
+    def position(self) -> np.ndarray:
+        return self._stack.place_pos[self._row].copy()
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return self._stack.place_rot[self._row].copy()
+
+    def set_target(self, name: str, position) -> None:
+        """Set (or move) the named external target, in world space."""
+        p = np.asarray(position, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"target '{name}' must be 3 finite numbers, got {position!r}")
+        self._targets[name] = p
+
+    def clear_target(self, name: str) -> None:
+        self._targets.pop(name, None)
+
+    # -- playing -----------------------------------------------------------------------
+
+    def binding(self, animation: Animation) -> Binding:
+        """The (cached) binding of ``animation`` on this creature: its variants."""
+        return bind(animation, self.creature)
+
+    def play(self, animation: Animation, variant: int | str | Variant | None = None, weight: float = 1.0,
+             fade: float = 0.2, loop: bool | None = None, *, speed: float = 1.0, layer: int = 0,
+             fade_out: float | None = None, crossfade: bool = True,
+             on_event: EventCallback | None = None) -> PlayHandle:
+        """Play ``animation`` (its ``variant``: index, id or Variant; default the first)."""
+        clip = self._clip(animation, variant)
+        return self.player.play(animation, payload=clip, weight=weight, fade=fade, fade_out=fade_out, loop=loop,
+                                speed=speed, layer=layer, crossfade=crossfade, on_event=on_event)
+
+    def queue(self, animation: Animation, variant=None, weight: float = 1.0, fade: float = 0.2,
+              loop: bool | None = None, *, speed: float = 1.0, layer: int = 0, fade_out: float | None = None,
+              on_event: EventCallback | None = None) -> PlayHandle:
+        """Play ``animation`` when what plays on ``layer`` now ends."""
+        clip = self._clip(animation, variant)
+        return self.player.queue(animation, payload=clip, weight=weight, fade=fade, fade_out=fade_out, loop=loop,
+                                 speed=speed, layer=layer, on_event=on_event)
+
+    def stop(self, handle: PlayHandle | None = None, fade: float = 0.2) -> None:
+        """Fade out one clip, or everything (``handle=None``)."""
+        if handle is None:
+            self.player.stop_all(fade)
+        else:
+            self.player.stop(handle, fade)
+
+    def set_layer_weight(self, layer: int, weight: float) -> None:
+        self.player.set_layer_weight(layer, weight)
+
+    @property
+    def on_event(self) -> EventCallback | None:
+        return self.player.on_event
+
+    @on_event.setter
+    def on_event(self, callback: EventCallback | None) -> None:
+        self.player.on_event = callback
+
+    def _clip(self, animation: Animation, variant) -> _Clip:
+        if not isinstance(animation, Animation):
+            raise TypeError(f"play needs an Animation, got {type(animation).__name__}")
+        binding = bind(animation, self.creature)
+        return _Clip(animation, binding, binding.bound(variant))
+
+    # -- one frame ---------------------------------------------------------------------
+
+    def tick(self, dt: float) -> None:
+        """Advance the character by ``dt`` seconds and pose every body."""
+        _check_dt(dt)
+        st = self.stages
+        if st.player:
+            self.player.advance(dt)                     # 1. player: clip times, fades, queue, events
+        if st.sample:
+            _sample_character(self)                     # 2-3. sample curves, specialize (S)
+        if st.blend:
+            _blend_stack(self._stack, self.player)      # 4. blend clips and layers into goals
+        # 5. gait: not yet; the root follows its animation channel (set by the blend)
+        _solve_character(self)                          # 6. IK (or the rest pose when off)
+        if st.output:
+            _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
+        self._frame += 1
+
+    # -- outputs -----------------------------------------------------------------------
+
+    def skinning_matrices(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(nbody, 4, 4) world transform x inverse rest transform per body."""
+        if out is None:
+            out = self._skin
+        RK.skinning_into(self.world_positions, self.world_rotations, self._inv_bind, out)
+        return out
+
+    def world_matrices(self) -> np.ndarray:
+        """(nbody, 4, 4) world transform of every body."""
+        return np.stack([_pose_matrix(p, q) for p, q in zip(self.world_positions, self.world_rotations,
+                                                              strict=True)])
+
+    @property
+    def ik_plan(self):
+        """The IK plan of what plays now (None before the first tick)."""
+        return self._plan
+
+
+# -- stage helpers (shared by Character and Crowd) -------------------------------------------
+
+
+def _check_dt(dt: float) -> None:
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f"tick: dt must be a positive finite number of seconds, got {dt!r}")
+
+
+def _fill_external(char: Character, clip: _Clip, table_row: np.ndarray) -> None:
+    """External target rows in character space (the game sets them in world space)."""
+    if clip.n_ext == 0:
+        return
+    s, r = char._stack, char._row
+    inv = np.array([s.place_rot[r, 0], -s.place_rot[r, 1], -s.place_rot[r, 2], -s.place_rot[r, 3]])
+    for k, name in enumerate(clip.bound.target_names):
+        p = char._targets.get(name)
+        if p is None:
+            table_row[k] = default_target(clip.animation, char.creature, name)
+        else:
+            table_row[k] = _qrot(inv, p - s.place_pos[r])
+
+
+def _sample_character(char: Character) -> None:
+    s, r = char._stack, char._row
+    a = s.player
+    for slot, h in enumerate(char.player.handles):
+        if h is None:
+            continue
+        clip: _Clip = h.payload
+        _fill_external(char, clip, clip.table[0])
+        c = char.creature
+        RK.fill_body_rows(clip.table, clip.n_ext, s.char_pos, _ROW[r])
+        bv = clip.bound
+        RK.goals_pairs(clip.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, clip.table,
+                       a.time[r, slot : slot + 1], _ROW[r], _ROW[slot], c.body_rest_pos, c.body_rest_rot,
+                       clip.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
+
+
+def _blend_stack(s: _Stack, player: Player) -> None:
+    c = s.creature
+    a = s.player
+    RK.blend_layers(a.active, a.effective, a.layer, a.layer_weight.shape[1], s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw,
+                    c.body_rest_pos, c.body_rest_rot, s.lay_pos, s.lay_rot, s.lay_pw, s.lay_rw, s.goal_pos,
+                    s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos, s.root_rot)
+
+
+def _plan_key(char: Character) -> tuple:
+    return tuple(sorted(h.serial for h in char.player.handles if h is not None))
+
+
+def _update_plan(char: Character) -> None:
+    """The IK plan for the bodies the playing clips pose (rebuilt only when what plays
+    changes; plans themselves are cached per creature and goal set)."""
+    key = _plan_key(char)
+    if key == char._plan_key and char._plan is not None:
+        return
+    goal_bodies = set()
+    for h in char.player.handles:
+        if h is not None:
+            goal_bodies.update(int(b) for b in h.payload.bound.goal_bodies)
+    goal_bodies.discard(0)
+    plan = plan_for(char.creature, sorted(goal_bodies), char.ik_params)
+    if plan is not char._plan:
+        char._plan = plan
+        char._scratch_ik = plan.make_scratch()
+        s, r = char._stack, char._row
+        s.driven[r] = plan.has_ik
+        s.driven[r, 0] = True
+    char._plan_key = key
+
+
+def _solve_character(char: Character) -> None:
+    _update_plan(char)
+    s, r = char._stack, char._row
+    if char.stages.ik:
+        b = char._plan.blobs
+        RK.solve_indexed(b[0], b[1], b[2], b[3], _ROW[r], s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw,
+                         s.goal_rw, s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad)
+        if s.ik_bad[r] != -1:
+            _raise_ik(char, int(s.ik_bad[r]))
+    else:
+        _rest_pose(char.creature, s.root_pos[r], s.root_rot[r], s.char_pos[r], s.char_rot[r], s.driven[r])
+
+
+def _raise_ik(char: Character, code: int) -> None:
+    from engine.ik.solver import _raise_bad
+
+    _raise_bad(char._plan, code, who=f"character of creature '{char.creature.name}': ")
+
+
+def _rest_pose(c: Creature, root_pos, root_rot, out_pos, out_rot, driven) -> None:
+    """The root-relative rest pose carried by the root (the IK stage switched off)."""
+    for b in np.flatnonzero(driven):
+        out_rot[b] = _qmul(root_rot, c.body_rootrel_rot[b])
+        out_pos[b] = root_pos + _qrot(root_rot, c.body_rootrel_pos[b])
+
+
+def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
+    c = s.creature
+    RK.output_and_jiggle(s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot,
+                         c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever,
+                         rig.omega, rig.zeta, rig.max_err, rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target,
+                         s.jig_target_vel, s.jig_active, float(dt), bool(simulate))
+
+
+#: Index arrays of one element, made once (row k of a stack), so the per-frame path
+#: does not build arrays.
+_ROW = [np.array([k], np.int64) for k in range(64)]
+
+
+def _qmul(a, b):
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
+
+
+def _qrot(q, v):
+    u = np.asarray(q[1:], dtype=float)
+    t = 2.0 * np.cross(u, v)
+    return np.asarray(v, dtype=float) + q[0] * t + np.cross(u, t)
+
+
+def _pose_matrix(pos, rot) -> np.ndarray:
+    w, x, y, z = rot
+    m = np.eye(4)
+    m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                 [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                 [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+    m[:3, 3] = pos
+    return m
+
+
+class Crowd:
+    """Many characters ticked together: one kernel call per stage and creature (and per
+    bound animation variant and IK plan), not one per character.
+
+    The characters keep working alone too (their arrays become rows of the crowd's
+    stacks); a character belongs to at most one crowd.
+    """
+
+    def __init__(self, characters) -> None:
+        self.characters: list[Character] = list(characters)
+        if not self.characters:
+            raise ValueError("a Crowd needs at least one character")
+        if len({id(c) for c in self.characters}) != len(self.characters):
+            raise ValueError("a character appears twice in the crowd")
+        self._groups: list[_Group] = []
+        by_creature: dict[int, list[Character]] = {}
+        for ch in self.characters:
+            if not isinstance(ch, Character):
+                raise TypeError(f"a Crowd holds Characters, got {type(ch).__name__}")
+            by_creature.setdefault(id(ch.creature), []).append(ch)
+        for members in by_creature.values():
+            self._groups.append(_Group(members))
+
+    def __len__(self) -> int:
+        return len(self.characters)
+
+    def tick(self, dt: float) -> None:
+        """Advance every character by ``dt`` seconds."""
+        _check_dt(dt)
+        for g in self._groups:
+            g.tick(dt)
+
+
+class _Group:
+    """The characters of one creature in a crowd, in one stack."""
+
+    def __init__(self, members: list[Character]) -> None:
+        first = members[0]
+        self.members = members
+        self.creature = first.creature
+        nslot, nlayer = first.player.nslot, first.player.nlayer
+        for m in members:
+            if (m.player.nslot, m.player.nlayer) != (nslot, nlayer):
+                raise ValueError("characters of one creature in a crowd need the same slot and layer counts")
+        self.stack = _Stack(self.creature, len(members), nslot, nlayer)
+        for row, m in enumerate(members):
+            m._move_to(self.stack, row)
+        self.rows = np.arange(len(members), dtype=np.int64)
+        self._pairs: dict[int, _PairBuffer] = {}
+
+    def tick(self, dt: float) -> None:
+        s = self.stack
+        ref = self.members[0]
+        st = ref.stages
+        # 1. player: every clip slot of every member in one kernel
+        if st.player:
+            advance_arrays(s.player, dt)
+            for m in self.members:
+                m.player.after_advance()
+        # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
+        if st.sample:
+            self._sample()
+        # 4. blend: one kernel over the stack
+        if st.blend:
+            _blend_stack(s, ref.player)
+        # 5. gait: not yet (the root follows its animation channel)
+        # 6. IK: one kernel per IK plan over the members using it
+        self._solve(st.ik)
+        # 7-8. jiggle and world output: one kernel over the stack
+        if st.output:
+            _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
+
+    def _sample(self) -> None:
+        s = self.stack
+        a = s.player
+        groups: dict[int, list] = {}
+        for row, m in enumerate(self.members):
+            for slot, h in enumerate(m.player.handles):
+                if h is not None:
+                    groups.setdefault(id(h.payload.bound), []).append((row, slot, h.payload, m))
+        c = self.creature
+        for key, pairs in groups.items():
+            buf = self._pairs.get(key)
+            clip0: _Clip = pairs[0][2]
+            if buf is None or buf.capacity < len(pairs):
+                buf = _PairBuffer(max(len(pairs), 2 * (buf.capacity if buf else 0)), clip0.n_ext + c.nbody)
+                self._pairs[key] = buf
+            k = len(pairs)
+            for i, (row, slot, clip, m) in enumerate(pairs):
+                buf.pair_char[i] = row
+                buf.pair_slot[i] = slot
+                buf.times[i] = a.time[row, slot]
+                if clip.n_ext:
+                    _fill_external(m, clip, buf.tables[i])
+            RK.fill_body_rows(buf.tables[:k], clip0.n_ext, s.char_pos, buf.pair_char[:k])
+            bv = clip0.bound
+            RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, buf.tables[:k],
+                           buf.times[:k], buf.pair_char[:k], buf.pair_slot[:k], c.body_rest_pos, c.body_rest_rot,
+                           clip0.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
+
+    def _solve(self, ik_on: bool) -> None:
+        s = self.stack
+        plans: dict[int, tuple] = {}
+        for row, m in enumerate(self.members):
+            _update_plan(m)
+            entry = plans.get(id(m._plan))
+            if entry is None:
+                plans[id(m._plan)] = (m._plan, m._scratch_ik, [row])
+            else:
+                entry[2].append(row)
+        for plan, scratch, rows in plans.values():
+            if ik_on:
+                idx = self.rows[rows[0]: rows[0] + len(rows)] if rows == list(range(rows[0], rows[0] + len(rows))) \
+                    else np.array(rows, np.int64)
+                b = plan.blobs
+                nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot,
+                                        s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch, s.ik_bad)
+                if nbad:
+                    row = int(idx[np.flatnonzero(s.ik_bad[idx] != -1)[0]])
+                    _raise_ik(self.members[row], int(s.ik_bad[row]))
+            else:
+                for row in rows:
+                    _rest_pose(self.creature, s.root_pos[row], s.root_rot[row], s.char_pos[row], s.char_rot[row],
+                               s.driven[row])
+
+
+class _PairBuffer:
+    def __init__(self, capacity: int, nrow: int) -> None:
+        self.capacity = capacity
+        self.pair_char = np.zeros(capacity, np.int64)
+        self.pair_slot = np.zeros(capacity, np.int64)
+        self.times = np.zeros(capacity)
+        self.tables = np.zeros((capacity, nrow, 3))
+
+
+__all__ = ["Character", "Crowd", "STAGES", "Stages", "MenagerieError"]
