@@ -20,7 +20,8 @@ Drawing order and state, per frame:
    4. the box edges drawn next sit cleanly on top of them;
 5. links, overlay lines, joint markers, overlay points: once where visible, and once
    more where hidden behind bodies at ``scene.overlay_hidden_alpha`` (an x-ray);
-6. text labels (pyglet.text), at the projected anchor points.
+6. text labels (pyglet.text), at the projected anchor points, and the scene's caption
+   at the top left.
 Line widths and point sizes are in pixels of a 720-row picture and scale with height.
 
 No pillow needed: ``write_png`` encodes with zlib.
@@ -212,6 +213,7 @@ class Renderer:
         self.geometry = geo.SceneGeometry()
         self.camera: sc.Camera | None = None  # the camera of the last draw
         self._labels: list = []
+        self._caption = None
         self._label_batch = None
         self._label_keys: list = []
         self._fbo_size = (0, 0)
@@ -302,6 +304,7 @@ class Renderer:
         gl.glDeleteVertexArrays(1, ctypes.byref(self._vao))
         self.program.delete()
         self._labels.clear()
+        self._caption = None
         self._label_batch = None
         if self._own_window:
             self.window.close()
@@ -454,7 +457,7 @@ class Renderer:
 
     def _draw_labels(self, scene: sc.Scene, camera: sc.Camera) -> None:
         items = self._label_items(scene, camera)
-        if not items:
+        if not items and not scene.caption:
             return
         pyglet = self._pyglet
         from pyglet.math import Mat4
@@ -462,6 +465,22 @@ class Renderer:
         if self._label_batch is None:
             self._label_batch = pyglet.graphics.Batch()
         font_size = 11.0 * self.height / 720.0
+        # The caption: top left, a little larger, wrapped to the picture width.
+        if self._caption is None:
+            self._caption = pyglet.text.Label(
+                "", x=0, y=0, anchor_x="left", anchor_y="top", multiline=True, width=100,
+                color=tuple(int(round(255 * c)) for c in (*sc.LABEL_COLOR, 1.0)),
+                batch=self._label_batch)
+        cap = self._caption
+        cap.visible = bool(scene.caption)
+        if scene.caption:
+            margin = round(10 * self.height / 720.0)
+            if cap.text != scene.caption:
+                cap.text = scene.caption
+            if cap.font_size != 1.2 * font_size:
+                cap.font_size = 1.2 * font_size
+            cap.width = max(self.width - 2 * margin, 1)
+            cap.position = (margin, self.height - margin, 0)
         # Reuse Label objects frame to frame; only changed text or places are updated.
         while len(self._labels) < len(items):
             self._labels.append(pyglet.text.Label(

@@ -359,6 +359,8 @@ class Scene:
 
     ``camera`` None frames all actors and overlays automatically (``auto_camera``), from
     the direction ``view_azimuth``/``view_elevation`` with field of view ``view_fov``.
+    ``caption``: text at the top left of the picture (a demo's "walk, 1.2 m/s"), drawn
+    with the labels (``show_labels``).
     ``overlay_hidden_alpha``: skeleton and overlay lines/points hidden behind bodies are
     still drawn at this opacity (0 hides them), so IK particles inside a body stay visible.
     """
@@ -373,6 +375,7 @@ class Scene:
     show_shadows: bool = True
     show_labels: bool = True
     show_edges: bool = True
+    caption: str | None = None
     overlay_hidden_alpha: float = 0.3
     background: tuple[float, float, float] = BACKGROUND_COLOR
     view_azimuth: float = DEFAULT_AZIMUTH

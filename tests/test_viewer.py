@@ -515,6 +515,12 @@ def test_overlays_points_segments_labels(renderer, mini):
     (lx, ly), = cam.project(goal + [0, 0, 0.1], W, H)[0]
     region = img[max(int(ly) - 30, 0):int(ly), int(lx) - 25:int(lx) + 25].reshape(-1, 3)
     assert region.sum(axis=1).min() < 250
+    # A caption draws dark text in the top left corner, which is background without it.
+    corner = (slice(0, H // 10), slice(0, W // 4))
+    assert img[corner].reshape(-1, 3).sum(axis=1).min() > 600
+    scene.caption = "walk, 1.2 m/s"
+    renderer.draw(scene, camera=cam)
+    assert renderer.read_pixels()[corner].reshape(-1, 3).sum(axis=1).min() < 250
 
 
 def test_window_controls_headless(renderer, mini, twist, tmp_path, monkeypatch):
