@@ -255,3 +255,33 @@ def test_remapping_other_bodies_changes_as_the_paper_says():
     after = k_new
     assert body_reach(c, thigh) < body_reach(c, foot)
     np.testing.assert_allclose(after / before, body_reach(c, foot) / body_reach(c, thigh))
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from test_channels import POSITION_SPECS, ROTATION_SPECS  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 25), pick=st.integers(0, 1000), old_pos=st.sampled_from(POSITION_SPECS),
+       new_pos=st.sampled_from(POSITION_SPECS), old_rot=st.sampled_from(ROTATION_SPECS),
+       new_rot=st.sampled_from(ROTATION_SPECS), draw=st.integers(0, 2**31))
+def test_key_remapping_between_any_two_modes_on_random_creatures(seed, pick, old_pos, new_pos, old_rot, new_rot,
+                                                                  draw):
+    c = build_creature(random_creature_def(seed))
+    rng = np.random.default_rng(draw)
+    anim = animation_from_text(REMAP)
+    ch = dataclasses.replace(anim.channels[0], query=dataclasses.replace(anim.channels[0].query, type="spine"),
+                             position=old_pos, rotation=old_rot)
+    anim = dataclasses.replace(anim, channels=(ch,))
+    spine = ch.query.evaluate(c)
+    body = int(spine[pick % len(spine)])
+    target = c.body_rest_pos[body] + rng.normal(size=3) * float(np.max(c.size))
+    times = np.linspace(0, 2, 11)
+    before = specialized_curve(anim, c, body, target, times)
+    new = remap_channel(ch, c, body, position=new_pos, rotation=new_rot, target=target)
+    after = specialized_curve(dataclasses.replace(anim, channels=(new,)), c, body, target, times)
+    scale = max(1.0, float(np.max(c.size)))
+    np.testing.assert_allclose(after[:, :3], before[:, :3], atol=1e-8 * scale)
+    np.testing.assert_allclose(after[:, 3:], before[:, 3:], atol=1e-8)
