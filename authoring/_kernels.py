@@ -183,3 +183,27 @@ def fill_skeleton(body_pos, body_rot, body_joint_offset, body_parent, offset, sc
         row += 4
         _put(verts, point_start + i, joint, 0.0, 0.0, 0.0, joint_rgba[0], joint_rgba[1],
              joint_rgba[2], joint_rgba[3], joint_size)
+
+
+@njit(cache=True)
+def pose_bounds(body_pos, body_rot, body_extent, offset, scale, out):
+    """World bounding box [min, max] -> out (2, 3) of every box corner of a pose placed
+    at offset + scale * p. A box's extent along world axis k is sum_a |R[k, a]| e_a."""
+    m = np.empty((3, 3))
+    for k in range(3):
+        out[0, k] = np.inf
+        out[1, k] = -np.inf
+    for i in range(body_pos.shape[0]):
+        _rotation(body_rot[i], m)
+        for k in range(3):
+            half = (abs(m[k, 0]) * body_extent[i, 0] + abs(m[k, 1]) * body_extent[i, 1]
+                    + abs(m[k, 2]) * body_extent[i, 2])
+            lo = body_pos[i, k] - half
+            hi = body_pos[i, k] + half
+            if lo < out[0, k]:
+                out[0, k] = lo
+            if hi > out[1, k]:
+                out[1, k] = hi
+    for k in range(3):
+        out[0, k] = offset[k] + scale * out[0, k]
+        out[1, k] = offset[k] + scale * out[1, k]

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from authoring._kernels import pose_fault
+from authoring._kernels import pose_bounds, pose_fault
 from engine.errors import DataError
 from engine.model.caps import CAP_BIT, CAPABILITIES
 from engine.model.creature import Creature
@@ -244,11 +244,14 @@ class Actor:
             raise SceneError(f"body '{c.body_names[body]}': {reason}", subject=c.name,
                              field="world_positions" if what == 0 else "world_rotations")
 
-    def world_bounds(self) -> np.ndarray:
-        """``(2, 3)`` [min, max] of every box corner in the current pose, in world space."""
-        corners = box_corners(self.world_positions, self.world_rotations, self.creature.body_extent)
-        pts = self.offset + self.scale * corners.reshape(-1, 3)
-        return np.stack([pts.min(axis=0), pts.max(axis=0)])
+    def world_bounds(self, out: np.ndarray | None = None) -> np.ndarray:
+        """``(2, 3)`` [min, max] of every box corner in the current pose, in world space
+        (into ``out`` when given: no allocation)."""
+        if out is None:
+            out = np.empty((2, 3))
+        pose_bounds(self.world_positions, self.world_rotations, self.creature.body_extent,
+                    self.offset, self.scale, out)
+        return out
 
     def __repr__(self) -> str:
         return f"Actor({self.creature.name!r}, offset={self.offset.tolist()}, scale={self.scale:g})"
@@ -381,6 +384,8 @@ class Scene:
     view_azimuth: float = DEFAULT_AZIMUTH
     view_elevation: float = DEFAULT_ELEVATION
     view_fov: float = DEFAULT_FOV_Y
+    _scratch: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)), init=False,
+                                 repr=False, compare=False)
 
     def auto_camera(self, aspect: float, bounds=None) -> Camera:
         """A camera framing everything (``bounds`` if the caller has them already)."""
@@ -417,22 +422,38 @@ class Scene:
         raise SceneError(f"cannot add a {type(item).__name__} to a scene", kind="scene")
 
     def bounds(self) -> np.ndarray | None:
-        """``(2, 3)`` world bounds of actors and overlays, or None for an empty scene."""
-        lo, hi = [], []
+        """``(2, 3)`` world bounds of actors and overlays, or None for an empty scene.
+
+        The array is the scene's own scratch, rewritten by the next call (so a frame
+        allocates nothing here); copy it to keep it."""
+        out, box = self._scratch[0:2], self._scratch[2:4]
+        out[0], out[1] = np.inf, -np.inf
         for a in self.actors:
-            b = a.world_bounds()
-            lo.append(b[0])
-            hi.append(b[1])
-        pts = [p.positions for p in self.points] + [s.starts for s in self.segments] + \
-              [s.ends for s in self.segments] + [p.points for p in self.polylines] + \
-              [lab.position[None] for lab in self.labels]
-        for p in pts:
-            if p.shape[0]:
-                lo.append(p.min(axis=0))
-                hi.append(p.max(axis=0))
-        if not lo:
+            a.world_bounds(box)
+            np.minimum(out[0], box[0], out=out[0])
+            np.maximum(out[1], box[1], out=out[1])
+        for group in (self.points, self.segments, self.polylines, self.labels):
+            for item in group:
+                for p in _overlay_arrays(item):
+                    if p.shape[0]:
+                        np.min(p, axis=0, out=box[0])
+                        np.max(p, axis=0, out=box[1])
+                        np.minimum(out[0], box[0], out=out[0])
+                        np.maximum(out[1], box[1], out=out[1])
+        if not np.isfinite(out[0, 0]):
             return None
-        return np.stack([np.min(lo, axis=0), np.max(hi, axis=0)])
+        return out
+
+
+def _overlay_arrays(item) -> tuple[np.ndarray, ...]:
+    """The point arrays of an overlay, each (n, 3)."""
+    if isinstance(item, Points):
+        return (item.positions,)
+    if isinstance(item, Segments):
+        return (item.starts, item.ends)
+    if isinstance(item, Polyline):
+        return (item.points,)
+    return (item.position.reshape(1, 3),)
 
 
 # -- geometry helpers (numpy; the renderer's kernels do the same per frame) ----------------------

@@ -199,6 +199,10 @@ def test_box_faces_and_edges_match_numpy_corners(twist):
     offset, scale = (1.0, -2.0, 0.5), 1.7
     verts, pos, rot, colors = _filled(twist, pos, rot, offset, scale)
     corners = np.asarray(offset) + scale * sc.box_corners(pos, rot, twist.body_extent)
+    actor = sc.Actor(twist, pos, rot, offset=offset, scale=scale)
+    flat = corners.reshape(-1, 3)
+    np.testing.assert_allclose(actor.world_bounds(), [flat.min(axis=0), flat.max(axis=0)],
+                               atol=1e-12)
     for i in range(n):
         tri = verts[i * 36:(i + 1) * 36].astype(float)
         edge = verts[n * 36 + i * 24:n * 36 + (i + 1) * 24].astype(float)
