@@ -259,7 +259,6 @@ def test_remapping_other_bodies_changes_as_the_paper_says():
 
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
-
 from test_channels import POSITION_SPECS, ROTATION_SPECS  # noqa: E402
 
 
