@@ -147,7 +147,7 @@ class Character:
         self._stack = _Stack(creature, 1, nslot, nlayer)
         self._row = 0
         self._bind_views()
-        self.set_placement(position, heading)
+        self.set_placement(position, heading, teleport=True)
         n = creature.nbody
         self._inv_bind = np.zeros((n, 4, 4))
         for b in range(n):
@@ -173,9 +173,12 @@ class Character:
 
     # -- placement and targets ---------------------------------------------------------
 
-    def set_placement(self, position=None, heading: float | None = None, rotation=None) -> None:
+    def set_placement(self, position=None, heading: float | None = None, rotation=None, *,
+                      teleport: bool = False) -> None:
         """Place the character frame in the world: ``position`` (3,), and a ``heading``
-        (radians about +Z) or a full ``rotation`` quaternion."""
+        (radians about +Z) or a full ``rotation`` quaternion. Moving the placement every
+        frame moves the character (its passive bodies swing with the motion);
+        ``teleport=True`` jumps without secondary motion."""
         s, r = self._stack, self._row
         if position is not None:
             p = np.asarray(position, dtype=float)
@@ -194,7 +197,18 @@ class Character:
             if not (n > 1e-9 and np.isfinite(n)):
                 raise ValueError(f"rotation must be a non-zero finite quaternion (w, x, y, z), got {rotation!r}")
             s.place_rot[r] = q / n
+        if teleport:
+            self._snap_world()
 
+    def _snap_world(self) -> None:
+        """World pose = placement x current character-space pose; passive motion reset."""
+        s, r = self._stack, self._row
+        for b in range(self.creature.nbody):
+            s.world_rot[r, b] = _qmul(s.place_rot[r], s.char_rot[r, b])
+            s.world_pos[r, b] = s.place_pos[r] + _qrot(s.place_rot[r], s.char_pos[r, b])
+        s.jig_err[r] = 0.0
+        s.jig_err_vel[r] = 0.0
+        s.jig_active[r] = False
     @property
     def position(self) -> np.ndarray:
         return self._stack.place_pos[self._row].copy()

@@ -1,0 +1,184 @@
+"""The runtime: Character.tick through every stage, stage switches, placement, targets,
+events, the crowd matching characters ticked alone, skinning, loading."""
+
+from __future__ import annotations
+
+import glob
+
+import numpy as np
+import pytest
+
+import engine
+from engine.anim import load_animation
+from engine.runtime import Character, Crowd
+
+DT = 1 / 60
+
+
+@pytest.fixture(scope="module")
+def human():
+    return engine.load_creature("creatures/humanoid.yaml")
+
+
+@pytest.fixture(scope="module")
+def wave():
+    return load_animation("animations/wave.yaml")
+
+
+def run(char, seconds):
+    for _ in range(int(round(seconds / DT))):
+        char.tick(DT)
+
+
+def test_rest_without_animation_is_the_rest_pose(human):
+    ch = Character(human, position=(2.0, 1.0, 0.0), heading=np.pi / 2)
+    run(ch, 0.2)
+    # Heading +90 degrees: rest x becomes world y, rest y becomes world -x.
+    rest = human.body_rest_pos
+    expected = np.stack([2.0 - rest[:, 1], 1.0 + rest[:, 0], rest[:, 2]], axis=1)
+    assert np.allclose(ch.world_positions, expected, atol=1e-9)
+
+
+def test_wave_moves_the_hand_and_only_what_it_should(human, wave):
+    ch = Character(human)
+    ch.play(wave, fade=0.0)
+    run(ch, 0.5)
+    hand = human.body("hand_l")
+    assert np.linalg.norm(ch.world_positions[hand] - human.body_rest_pos[hand]) > 0.3
+    assert ch.world_positions[hand, 2] > human.body_rest_pos[human.body("pelvis"), 2]
+    foot = human.body("foot_r")
+    assert np.allclose(ch.world_positions[foot], human.body_rest_pos[foot], atol=1e-3)
+    assert np.all(np.isfinite(ch.world_positions)) and np.all(np.isfinite(ch.world_rotations))
+
+
+def test_variant_and_mirror(human, wave):
+    left, right = Character(human), Character(human)
+    left.play(wave, variant=0, fade=0.0)
+    right.play(wave, variant=1, fade=0.0)
+    run(left, 0.5)
+    run(right, 0.5)
+    hl, hr = human.body("hand_l"), human.body("hand_r")
+    mirrored = right.world_positions[hr] * np.array([1.0, -1.0, 1.0])
+    assert np.allclose(left.world_positions[hl], mirrored, atol=2e-3)
+
+
+def test_stage_switches(human, wave):
+    ch = Character(human)
+    ch.play(wave, fade=0.0)
+    run(ch, 0.3)
+    ch.stages.ik = False
+    ch.tick(DT)
+    # IK off: the rest pose carried by the root.
+    assert np.allclose(ch.world_positions, human.body_rest_pos, atol=1e-9)
+    ch.stages.ik = True
+    ch.stages.player = False
+    ch.tick(DT)
+    before = ch.world_positions.copy()
+    ch.tick(DT)
+    assert np.allclose(ch.world_positions, before)   # time frozen, pose frozen
+
+
+def test_jiggle_never_touches_driven_bodies(human, wave):
+    on, off = Character(human), Character(human)
+    off.stages.jiggle = False
+    for ch in (on, off):
+        ch.play(wave, fade=0.0)
+        ch.set_placement((0, 0, 0))
+    for k in range(30):
+        for ch in (on, off):
+            ch.set_placement((0.02 * k, 0.0, 0.0))
+            ch.tick(DT)
+    driven = on.ik_plan.has_ik
+    assert np.array_equal(on.world_positions[driven], off.world_positions[driven])
+    assert not np.array_equal(on.world_positions[~driven], off.world_positions[~driven])
+
+
+def test_external_target_in_world_space(human):
+    pick = load_animation("animations/pick_fruit.yaml")
+    ch = Character(human, position=(5.0, 0.0, 0.0))
+    fruit = np.array([5.55, 0.35, 1.3])
+    ch.set_target("fruit", fruit)
+    ch.play(pick, fade=0.0)
+    run(ch, 1.15)     # the reach peaks at 1.0-1.3 s
+    hand = ch.binding(pick).variants[0].bodies[0]
+    assert np.linalg.norm(ch.world_positions[hand] - fruit) < 0.08
+
+
+def test_events_reach_the_game(human, wave):
+    got = []
+    ch = Character(human)
+    ch.on_event = lambda handle, channel, event: got.append(event.name)
+    ch.play(wave, fade=0.0)
+    run(ch, 2.1)
+    assert got.count("wave_peak") == 2
+
+
+def test_crowd_matches_characters_alone(human, wave):
+    alone = [Character(human, position=(k, 0, 0)) for k in range(3)]
+    crowd_members = [Character(human, position=(k, 0, 0)) for k in range(3)]
+    for k, (a, b) in enumerate(zip(alone, crowd_members, strict=True)):
+        a.play(wave, variant=k % 2, speed=1 + 0.1 * k)
+        b.play(wave, variant=k % 2, speed=1 + 0.1 * k)
+    crowd = Crowd(crowd_members)
+    for _ in range(40):
+        crowd.tick(DT)
+        for a in alone:
+            a.tick(DT)
+    for a, b in zip(alone, crowd_members, strict=True):
+        assert np.allclose(a.world_positions, b.world_positions, atol=1e-12)
+    # Members still work alone after joining.
+    crowd_members[0].tick(DT)
+
+
+def test_skinning_matrices_are_identity_at_rest(human):
+    ch = Character(human)
+    ch.tick(DT)
+    m = ch.skinning_matrices()
+    assert m.shape == (human.nbody, 4, 4)
+    assert np.allclose(m, np.eye(4), atol=1e-9)
+
+
+def test_bad_input(human, wave):
+    ch = Character(human)
+    for dt in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="dt"):
+            ch.tick(dt)
+    with pytest.raises(ValueError, match="target"):
+        ch.set_target("fruit", (0, float("inf"), 0))
+    with pytest.raises(engine.MenagerieError, match="no variant"):
+        ch.play(wave, variant="tentacle_3")
+    with pytest.raises(engine.MenagerieError, match="snake"):
+        Character(engine.load_creature("creatures/snake.yaml")).play(wave)
+    with pytest.raises(TypeError):
+        Character("creatures/humanoid.yaml")
+
+
+def test_load_async_and_cache(tmp_path):
+    from engine.loading import load, load_async
+
+    f = load_async("creatures/spider.yaml")
+    g = load_async("animations/wave.yaml")
+    assert f.result(timeout=60).name == "spider"
+    assert g.result(timeout=60).name == "wave"
+    assert load("creatures/spider.yaml") is f.result()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("format: 1\nname: x\n")
+    with pytest.raises(engine.DataError, match="neither"):
+        load_async(bad).result(timeout=60)
+
+
+@pytest.mark.parametrize("path", sorted(glob.glob("animations/*.yaml")))
+def test_every_animation_every_variant_on_a_few_creatures(path):
+    anim = load_animation(path)
+    for name in ("humanoid", "spider", "octopus", "snake", "threearmed"):
+        c = engine.load_creature(f"creatures/{name}.yaml")
+        from engine.anim.binding import branch_failures
+        if branch_failures(anim, c):
+            continue
+        b = engine.bind(anim, c)
+        for v in range(b.nvariant):
+            ch = Character(c)
+            ch.play(anim, variant=v, fade=0.1)
+            for _ in range(int(anim.length / 0.1) + 1):
+                ch.tick(0.1)
+                assert np.all(np.isfinite(ch.world_positions)), (name, v)
