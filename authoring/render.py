@@ -432,26 +432,36 @@ class Renderer:
         return camera
 
     def _label_items(self, scene: sc.Scene, camera: sc.Camera):
-        """(text, pixel x, pixel y from the bottom, rgba 0-255) of every label to draw."""
-        items = []
+        """(text, pixel x, pixel y from the bottom, rgba 0-1) of every label to draw. An
+        actor's label sits above the highest picture point of its box, centred on the
+        box; all anchors are projected in one go."""
         w, h = self.width, self.height
-        for a in scene.actors:
-            if not a.label:
+        labelled = [a for a in scene.actors if a.label]
+        n = len(labelled)
+        anchors = np.empty((9 * n + len(scene.labels), 3))
+        box = np.empty((2, 3))
+        for k, a in enumerate(labelled):
+            a.world_bounds(box)
+            anchors[9 * k:9 * k + 8] = box[0] + sc.BOX_CORNER_SIGNS_01 * (box[1] - box[0])
+            anchors[9 * k + 8] = 0.5 * (box[0] + box[1])
+        for k, lab in enumerate(scene.labels):
+            anchors[9 * n + k] = lab.position
+        if anchors.shape[0] == 0:
+            return []
+        px, depth = camera.project(anchors, w, h)
+        items = []
+        lift = 6.0 * h / 720.0
+        for k, a in enumerate(labelled):
+            if np.any(depth[9 * k:9 * k + 9] <= camera.near):
                 continue
-            b = a.world_bounds()
-            corners = b[0] + sc.BOX_CORNER_SIGNS_01 * (b[1] - b[0])
-            px, depth = camera.project(corners, w, h)
-            if np.any(depth <= camera.near):
-                continue
-            centre, _ = camera.project(0.5 * (b[0] + b[1]), w, h)
-            top = float(px[:, 1].min())
-            items.append((a.label, float(centre[0, 0]), h - top + 6.0 * h / 720.0,
+            top = float(px[9 * k:9 * k + 8, 1].min())
+            items.append((a.label, float(px[9 * k + 8, 0]), h - top + lift,
                           (*sc.LABEL_COLOR, 1.0)))
-        for lab in scene.labels:
-            px, depth = camera.project(lab.position, w, h)
-            if depth[0] <= camera.near:
+        for k, lab in enumerate(scene.labels):
+            i = 9 * n + k
+            if depth[i] <= camera.near:
                 continue
-            items.append((lab.text, float(px[0, 0]), h - float(px[0, 1]) + 4.0 * h / 720.0,
+            items.append((lab.text, float(px[i, 0]), h - float(px[i, 1]) + 4.0 * h / 720.0,
                           tuple(lab.rgba)))
         return items
 
