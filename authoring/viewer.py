@@ -16,6 +16,7 @@ each alone. Controls:
     a                 the page with everyone
     f                 frame the page again  j  joints and links   g  grid   e  edges
     l                 labels                s  save a PNG of the window in the current folder
+    space             pause / run ``update``  .  one step of 1/60 s while paused
     h                 show or hide this help                      escape / q  close
 
 The window logic is plain pyglet event handlers around a ``Renderer``; the test suite
@@ -35,7 +36,7 @@ from engine.model.creature import Creature
 
 HELP_TEXT = ("drag: orbit   right drag/scroll: zoom   middle or shift drag: pan   "
              "\u2190/\u2192: page   a: all   f: frame   j/g/e/l: joints/grid/edges/labels   "
-             "s: save PNG   h: help   q: quit")
+             "space: pause   .: step   s: save PNG   h: help   q: quit")
 
 #: Orbit speed (radians per pixel dragged) and zoom speed (per pixel dragged / per wheel notch).
 ORBIT_PER_PIXEL = 0.008
@@ -185,6 +186,7 @@ class ViewerWindow:
         self.show_help = True
         self.last_saved: str | None = None
         self.closed = False
+        self.paused = False
         # A plain double-buffered window: the renderer antialiases in its own multisampled
         # framebuffer and copies the result in (a blit into a multisampled window
         # framebuffer is not allowed).
@@ -242,6 +244,11 @@ class ViewerWindow:
         return self
 
     def _tick(self, dt: float) -> None:
+        if self.update is not None and not self.paused:
+            self.update(dt)
+
+    def step(self, dt: float = 1 / 60) -> None:
+        """Advance ``update`` by one step of ``dt`` seconds (the '.' key, when paused)."""
         if self.update is not None:
             self.update(dt)
 
@@ -296,6 +303,11 @@ class ViewerWindow:
             self.show_help = not self.show_help
         elif symbol == k.S:
             self.save()
+        elif symbol == k.SPACE:
+            self.paused = not self.paused
+        elif symbol == k.PERIOD:
+            if self.paused:
+                self.step()
         elif symbol in (k.ESCAPE, k.Q):
             self.close()
         else:

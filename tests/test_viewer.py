@@ -536,7 +536,9 @@ def test_window_controls_headless(renderer, mini, twist, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     pages = creature_pages([mini, twist])
     assert len(pages) == 3 and len(pages[0].actors) == 2
-    win = ViewerWindow.create(pages, width=320, height=200, visible=False)
+    steps = []
+    win = ViewerWindow.create(pages, width=320, height=200, visible=False,
+                              update=steps.append)
     try:
         w = win.window
 
@@ -560,6 +562,11 @@ def test_window_controls_headless(renderer, mini, twist, tmp_path, monkeypatch):
         assert win.page == 2
         send("on_key_press", key.G, 0)
         assert not win.scene.show_grid
+        win._tick(0.5)
+        send("on_key_press", key.SPACE, 0)
+        win._tick(0.5)  # paused: not passed on
+        send("on_key_press", key.PERIOD, 0)
+        assert steps == [0.5, 1 / 60]
         win.draw()
         saved = win.save()
         from PIL import Image
