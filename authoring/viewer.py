@@ -128,7 +128,16 @@ def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
         print(f"menagerie view: no display here (DISPLAY is not set), wrote {out} instead")
         return out
     pyglet = rd.load_pyglet(headless=False)
-    window = ViewerWindow.create(pages, width=width, height=height, update=update, title=title)
+    try:
+        window = ViewerWindow.create(pages, width=width, height=height, update=update,
+                                     title=title)
+    except rd.ViewerError:
+        raise
+    except Exception as exc:  # pyglet's display and context errors have no common base
+        raise rd.ViewerError(
+            f"cannot open a window on DISPLAY={os.environ.get('DISPLAY')!r} "
+            f"({type(exc).__name__}: {exc}); write a picture instead (menagerie view FILE "
+            "--snapshot out.png) or run with MENAGERIE_HEADLESS=1") from None
     try:
         pyglet.app.run()
     finally:
