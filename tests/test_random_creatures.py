@@ -292,6 +292,25 @@ def test_other_overrides():
         assert np.any((asym.body_side != 0) & (asym.body_mirror < 0)), seed
 
 
+# Seeds and overrides that once broke a property (found by a fuzz over overrides).
+REGRESSIONS = [
+    (640540392, dict(nspine=13, nlegs=10, symmetric=True)),  # shedding split a detail pair
+    (525258994, dict(nlegs=7, narms=5, nheads=3, height=0.22009293241205458)),  # same
+    (769085031, dict(nheads=3, posture="upright")),  # a split leg's shin dipped below its short foot
+    # a lone flank detail sat within the builder's mirror tolerance of a detail pair's mirror
+    (1422703735, dict(nspine=9, narms=0, nheads=1, height=0.4509556680475418, posture="upright")),
+]
+
+
+@pytest.mark.parametrize("seed,kwargs", REGRESSIONS)
+def test_regressions(seed, kwargs):
+    c = _build_quiet(random_creature_def(seed, **kwargs))
+    corners = _corners(c.body_rest_pos, c.body_rest_rot, c.body_extent)
+    assert corners[:, :, 2].min() >= -1e-9 * c.height
+    unpaired = bool(np.any((c.body_side != 0) & (c.body_mirror < 0)))
+    assert unpaired == ("asymmetric" in c.description)
+
+
 # -- coverage of the distribution ---------------------------------------------------------
 
 

@@ -488,12 +488,14 @@ def _make_asymmetric(plan: _Plan, rng: np.random.Generator, c: dict) -> None:
              "wing": False}
     rights = [p for p in plan.parts if p.mirror_of is not None and p.kind in fixed]
     if not rights:
-        if c["narms"] is not None:  # keep the arm count: add a lone detail instead
-            part = _Part("detail", 90, 1, int(rng.integers(0, plan.spine_limit())),
-                         p=dict(along=0.0, size=0.3, up=0.2, asymmetry=True))
+        if c["narms"] is not None:  # keep the arm count: a horn on one flank instead
+            # (spikes elsewhere sit on the sagittal plane, so nothing can pass for its mirror)
+            part = _Part("spike", 90, 1, int(rng.integers(0, plan.spine_limit())),
+                         p=dict(length=rng.uniform(0.8, 1.5), back=rng.uniform(0.0, 0.8), along=0.0,
+                                asymmetry=True))
             part.side = 1 if rng.random() < 0.5 else -1
             plan.parts.append(part)
-            plan.asymmetry = "a lone detail on one side"
+            plan.asymmetry = f"a horn on the {'left' if part.side > 0 else 'right'} flank"
             return
         side = 1 if rng.random() < 0.5 else -1
         nextk = sum(1 for p in plan.parts if p.kind == "arm" and p.side >= 0)
@@ -917,19 +919,23 @@ class _Geometry:
         return self._lifted(build, _unit(np.array([p["back"], 1.0, p["up"]])))
 
     def _spike(self, part: _Part) -> list[_Body]:
+        """A spike on the ridge of a spine body, raked back; or, off the sagittal plane,
+        a horn on its left flank pointing out and up."""
         p = part.p
         b = self.spine[part.attach]
-        base = self.anchor(part.attach, p["along"], 0.0, 0.9)
-        base[1] = 0.0
+        centre = part.side == 0
+        base = self.anchor(part.attach, p["along"], 0.0 if centre else 0.9, 0.9 if centre else 0.3)
         up = _rotate(b.rot, _Z)
-        d = _unit(up - p["back"] * _X)
-        d[1] = 0.0
+        d = _unit(up - p["back"] * _X + (0.0 if centre else 1.5) * _Y)
+        if centre:
+            base[1] = d[1] = 0.0
         length = p["length"] * float(b.extents[2])
         r = min(0.25 * float(b.extents[2]), 0.25 * length)
 
         def build(direction: np.ndarray) -> list[_Body]:
-            s = _segment(f"spike{part.index}", b.name, ["spike"], base, base + length * direction, r, r)
-            s.pos[1] = 0.0
+            s = _segment(part.prefix, b.name, ["spike"], base, base + length * direction, r, r)
+            if centre:
+                s.pos[1] = 0.0
             return [s]
 
         return self._lifted(build, _unit(d))
