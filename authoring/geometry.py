@@ -6,9 +6,9 @@ drawn how. The array grows when a scene needs more rows and is reused otherwise,
 renderer drawing the same kind of scene every frame allocates no vertex memory after the
 first frame. No OpenGL here: tests read the arrays directly.
 
-Order in the array (also the drawing order): ground grid, body faces, body edges, parent
-links, overlay lines (one range per overlay, each has its own width), joint markers,
-overlay points.
+Order in the array (also the drawing order): ground grid, ground shadows, body faces,
+body edges, parent links, overlay lines (one range per overlay, each has its own width),
+joint markers, overlay points.
 """
 
 from __future__ import annotations
@@ -87,18 +87,16 @@ class SceneGeometry:
                 return
         self.ranges.append(DrawRange(kind, mode, first, count, width))
 
-    @staticmethod
-    def _scene_extent(scene, bounds) -> np.ndarray:
-        return _scene_extent_of(scene.bounds() if bounds is None else bounds)
-
     # -- build ---------------------------------------------------------------------------------
 
     def build(self, scene: sc.Scene, bounds=None) -> list[DrawRange]:
         """Fill ``verts`` for ``scene`` and return the draw ranges. ``bounds`` (2, 3) is the
         scene's bounds if the caller already has them (the grid is sized from them)."""
         actors = scene.actors
+        if bounds is None:
+            bounds = scene.bounds()
         if scene.show_grid:
-            centre, step, half = sc.grid_spec(scene.bounds() if bounds is None else bounds)
+            centre, step, half = sc.grid_spec(bounds)
             key = (float(centre[0]), float(centre[1]), step, half)
             if key != self._grid_key:
                 self._grid_key = key
@@ -149,7 +147,8 @@ class SceneGeometry:
         if shadow_rows:
             # Shadows: the face rows again, flattened to just above the ground (lifted by
             # a hair relative to the scene so they never fight the grid in depth).
-            lift = 1e-4 * max(float(np.max(self._scene_extent(scene, bounds))), 1e-3)
+            extent = 1.0 if bounds is None else float(np.max(bounds[1] - bounds[0]))
+            lift = 1e-4 * max(extent, 1e-3)
             sh = v[grid_rows:grid_rows + shadow_rows]
             sh[:] = v[face_first:face_first + shadow_rows]
             sh[:, 2] = lift
@@ -207,12 +206,6 @@ class SceneGeometry:
         self._add(OVERLAY_POINTS, "points", opoint_first, row - opoint_first)
         self.count = total
         return self.ranges
-
-
-def _scene_extent_of(bounds) -> np.ndarray:
-    if bounds is None:
-        return np.ones(3)
-    return np.asarray(bounds[1]) - np.asarray(bounds[0])
 
 
 def _polyline_segments(p: sc.Polyline) -> int:
