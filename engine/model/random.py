@@ -6,8 +6,10 @@ bodies, limbs and anatomical parts (mouths, eyes, graspers, feet, spikes, ...), 
 branching) arrangements (section 4.2, figure 6). ``random_creature_def(seed)`` makes
 such a creature as a ``CreatureDef``; ``generate_creatures`` writes a batch of files.
 
-Every draw comes from ``numpy.random.default_rng(seed)`` in a fixed order, so a seed
-gives the same creature, to the bit, on every machine.
+Every draw comes from ``numpy.random.default_rng(seed)`` in a fixed order (no Python
+``hash``, no set order), so a seed gives the same creature, to the bit, in every run
+and process. numpy does not promise identical Generator streams across its major
+versions, so a numpy upgrade may change what a seed makes.
 
 The distribution (per creature, before the 20-80 body-count fit described below):
 
@@ -37,9 +39,11 @@ The distribution (per creature, before the 20-80 body-count fit described below)
   the back 35% (1-5), detail pairs on the spine sides 30% (1-3 pairs).
 - without feet: crawls with the spine on the ground (60%) or floats above it (40%).
 - asymmetry (20%): one left/right pair of legs, arms, neck heads or wings loses one
-  side or has one side re-shaped; a creature with no pair gets a single arm on one
-  side. Symmetric creatures are exact mirrors: the right side is the left with y
-  negated and rotations mirrored, (w, x, y, z) -> (w, -x, y, -z).
+  side or has one side re-shaped (the leg, arm and head shares above are before a
+  side is dropped); a creature with no pair gets a single arm on one side (a horn on
+  one flank when ``narms`` is fixed). Symmetric creatures are exact mirrors: the
+  right side is the left with y negated and rotations mirrored,
+  (w, x, y, z) -> (w, -x, y, -z).
 
 Body count: over 80, the plan sheds parts in a fixed order (details, spikes, ears,
 extra eyes, tail, wing, neck, spine, leg and arm bones) until it fits; under 20, it
