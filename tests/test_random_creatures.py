@@ -24,7 +24,13 @@ from engine.model import build_creature, load_creature
 from engine.model.caps import CAP_BIT
 from engine.model.fileio import creature_def_to_text
 from engine.model.random import (
-    MAX_BODIES, MIN_BODIES, _Body, _polyline, _rot_from_x, generate_creatures, random_creature_def,
+    MAX_BODIES,
+    MIN_BODIES,
+    _Body,
+    _polyline,
+    _rot_from_x,
+    generate_creatures,
+    random_creature_def,
 )
 
 CM = 0.01  # the ground tolerances of the issue: feet within 1 cm, nothing deeper than 1 cm
@@ -333,8 +339,8 @@ def _def_facts(cdef) -> dict:
     parent = {b.name: b.parent for b in cdef.bodies}
     pos = np.array([b.pos for b in cdef.bodies])
     corners = _corners(pos, np.array([b.rot for b in cdef.bodies]), np.array([b.extents for b in cdef.bodies]))
-    feet = [b.name for b, c in zip(cdef.bodies, caps) if "foot" in c]
-    spine = {b.name for b, c in zip(cdef.bodies, caps) if "spine" in c}
+    feet = [b.name for b, c in zip(cdef.bodies, caps, strict=True) if "foot" in c]
+    spine = {b.name for b, c in zip(cdef.bodies, caps, strict=True) if "spine" in c}
     hips_below = {}
     for f in feet:  # two feet below the same non-spine body: a branching leg
         j = parent[f]
@@ -376,9 +382,9 @@ def test_distribution_covers_the_issue_list():
     assert share(lambda f: f["height"] < 0.3) >= 20 and share(lambda f: f["height"] > 5.0) >= 15
     assert share(lambda f: f["wings"]) >= 10 and share(lambda f: f["tails"]) >= 60
     for posture in ("horizontal", "inclined", "upright"):
-        assert share(lambda f: posture in f["description"]) >= 30
+        assert share(lambda f, word=posture: word in f["description"]) >= 30
     for mode in ("walks", "crawls", "floats"):
-        assert share(lambda f: mode in f["description"]) >= 10
+        assert share(lambda f, word=mode: word in f["description"]) >= 10
     spines = {f["spine"] for f in facts}
     assert min(spines) == 3 and max(spines) == 14
     bodies = [f["bodies"] for f in facts]
