@@ -186,3 +186,10 @@ def skinning_into(world_pos, world_rot, inv_bind, out):
                 for k in range(4):
                     acc += m[i, k] * inv_bind[b, k, j]
                 out[b, i, j] = acc
+
+
+@njit(cache=True)
+def gather_times(slot_time, pair_char, pair_slot, out):
+    """Local clip time of each (character, slot) pair."""
+    for k in range(pair_char.shape[0]):
+        out[k] = slot_time[pair_char[k], pair_slot[k]]

@@ -141,7 +141,7 @@ class Character:
         self.ik_params = ik_params
         self.jiggle_rig = JiggleRig.for_creature(creature)
         self._targets: dict[str, np.ndarray] = {}
-        self._plan_key: tuple | None = None
+        self._plan_key: int | None = None
         self._plan = None
         self._scratch_ik = None
         self._stack = _Stack(creature, 1, nslot, nlayer)
@@ -358,14 +358,10 @@ def _blend_stack(s: _Stack, player: Player) -> None:
                     s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos, s.root_rot)
 
 
-def _plan_key(char: Character) -> tuple:
-    return tuple(sorted(h.serial for h in char.player.handles if h is not None))
-
-
 def _update_plan(char: Character) -> None:
     """The IK plan for the bodies the playing clips pose (rebuilt only when what plays
     changes; plans themselves are cached per creature and goal set)."""
-    key = _plan_key(char)
+    key = char.player.version
     if key == char._plan_key and char._plan is not None:
         return
     goal_bodies = set()
@@ -492,8 +488,11 @@ class _Group:
         self.stack = _Stack(self.creature, len(members), nslot, nlayer)
         for row, m in enumerate(members):
             m._move_to(self.stack, row)
-        self.rows = np.arange(len(members), dtype=np.int64)
         self._pairs: dict[int, _PairBuffer] = {}
+        self._pairs_version = -1
+        self._pair_list: list = []
+        self._plans_version = -1
+        self._plan_list: list = []
 
     def tick(self, dt: float) -> None:
         s = self.stack
@@ -502,8 +501,10 @@ class _Group:
         # 1. player: every clip slot of every member in one kernel
         if st.player:
             advance_arrays(s.player, dt)
-            for m in self.members:
-                m.player.after_advance()
+            flagged = s.player.flags.any(axis=1)
+            for row, m in enumerate(self.members):
+                if flagged[row] or m.player.has_event_clips:
+                    m.player.after_advance()
         # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
         if st.sample:
             self._sample()
@@ -517,36 +518,51 @@ class _Group:
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
 
-    def _sample(self) -> None:
-        s = self.stack
-        a = s.player
+    def _pair_groups(self) -> list:
+        """(buffer, first clip, pair count, members with external targets) per bound
+        variant playing in the group, rebuilt only when a member's clips changed."""
+        version = sum(m.player.version for m in self.members)
+        if version == self._pairs_version:
+            return self._pair_list
         groups: dict[int, list] = {}
         for row, m in enumerate(self.members):
             for slot, h in enumerate(m.player.handles):
                 if h is not None:
                     groups.setdefault(id(h.payload.bound), []).append((row, slot, h.payload, m))
-        c = self.creature
+        out = []
+        nbody = self.creature.nbody
         for key, pairs in groups.items():
-            buf = self._pairs.get(key)
             clip0: _Clip = pairs[0][2]
+            buf = self._pairs.get(key)
             if buf is None or buf.capacity < len(pairs):
-                buf = _PairBuffer(max(len(pairs), 2 * (buf.capacity if buf else 0)), clip0.n_ext + c.nbody)
+                buf = _PairBuffer(max(len(pairs), 2 * (buf.capacity if buf else 0)), clip0.n_ext + nbody)
                 self._pairs[key] = buf
-            k = len(pairs)
-            for i, (row, slot, clip, m) in enumerate(pairs):
+            for i, (row, slot, _, _) in enumerate(pairs):
                 buf.pair_char[i] = row
                 buf.pair_slot[i] = slot
-                buf.times[i] = a.time[row, slot]
-                if clip.n_ext:
-                    _fill_external(m, clip, buf.tables[i])
+            external = [(i, clip, m) for i, (_, _, clip, m) in enumerate(pairs) if clip.n_ext]
+            out.append((buf, clip0, len(pairs), external))
+        self._pair_list, self._pairs_version = out, version
+        return out
+
+    def _sample(self) -> None:
+        s = self.stack
+        c = self.creature
+        for buf, clip0, k, external in self._pair_groups():
+            RK.gather_times(s.player.time, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k])
+            for i, clip, m in external:
+                _fill_external(m, clip, buf.tables[i])
             RK.fill_body_rows(buf.tables[:k], clip0.n_ext, s.char_pos, buf.pair_char[:k])
             bv = clip0.bound
             RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, buf.tables[:k],
                            buf.times[:k], buf.pair_char[:k], buf.pair_slot[:k], c.body_rest_pos, c.body_rest_rot,
                            clip0.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
 
-    def _solve(self, ik_on: bool) -> None:
-        s = self.stack
+    def _plan_groups(self) -> list:
+        """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
+        version = sum(m.player.version for m in self.members)
+        if version == self._plans_version:
+            return self._plan_list
         plans: dict[int, tuple] = {}
         for row, m in enumerate(self.members):
             _update_plan(m)
@@ -555,10 +571,14 @@ class _Group:
                 plans[id(m._plan)] = (m._plan, m._scratch_ik, [row])
             else:
                 entry[2].append(row)
-        for plan, scratch, rows in plans.values():
+        self._plan_list = [(plan, scratch, np.array(rows, np.int64)) for plan, scratch, rows in plans.values()]
+        self._plans_version = version
+        return self._plan_list
+
+    def _solve(self, ik_on: bool) -> None:
+        s = self.stack
+        for plan, scratch, idx in self._plan_groups():
             if ik_on:
-                idx = self.rows[rows[0]: rows[0] + len(rows)] if rows == list(range(rows[0], rows[0] + len(rows))) \
-                    else np.array(rows, np.int64)
                 b = plan.blobs
                 nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot,
                                         s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch, s.ik_bad)
@@ -566,7 +586,7 @@ class _Group:
                     row = int(idx[np.flatnonzero(s.ik_bad[idx] != -1)[0]])
                     _raise_ik(self.members[row], int(s.ik_bad[row]))
             else:
-                for row in rows:
+                for row in idx:
                     _rest_pose(self.creature, s.root_pos[row], s.root_rot[row], s.char_pos[row], s.char_rot[row],
                                s.driven[row])
 

@@ -7,12 +7,12 @@ import glob
 
 import numpy as np
 import pytest
+from test_variants import FIG4
 
 import engine
 from engine.anim import animation_from_text, load_animation
 from engine.anim.binding import BindError, bind, branch_failures, choose_branch, predicate_values
 from engine.model import creature_from_text
-from tests.test_variants import FIG4
 
 HANDOVER = """\
 format: 1

@@ -114,6 +114,10 @@ class Player:
     queues: list[deque] = field(init=False)
     on_event: EventCallback | None = None
     _serial: int = 0
+    #: Bumped whenever the set of playing clips changes (the runtime re-plans on change).
+    version: int = 0
+    #: Whether a playing clip has events (after_advance must look at it every frame).
+    has_event_clips: bool = False
 
     def __post_init__(self) -> None:
         if self.nslot < 1 or self.nlayer < 1:
@@ -203,6 +207,8 @@ class Player:
     def after_advance(self) -> None:
         """Events, clip ends and the queue: Python work only when something happened."""
         a = self.arrays
+        if not self.has_event_clips and not a.flags.any():
+            return
         for s in range(self.nslot):
             h = self.handles[s]
             if h is None:
@@ -217,6 +223,7 @@ class Player:
                 h.slot = -1
                 h.finished = True
                 self.handles[s] = None
+                self._changed()
                 if self.queues[h.layer] and not any(
                         o is not None and o.layer == h.layer for o in self.handles):
                     self._start_queued(self.queues[h.layer].popleft())
@@ -228,6 +235,10 @@ class Player:
                 for s, h in enumerate(self.handles) if h is not None]
 
     # -- internals ---------------------------------------------------------------------
+
+    def _changed(self) -> None:
+        self.version += 1
+        self.has_event_clips = any(h is not None and _has_events(h.animation) for h in self.handles)
 
     def _next_serial(self) -> int:
         self._serial += 1
@@ -255,6 +266,7 @@ class Player:
         old = self.handles[s]
         old.slot, old.finished = -1, True
         self.handles[s] = None
+        self._changed()
         return s
 
     def _start(self, handle, weight, fade, fade_out, loop, speed, start_time):
@@ -278,6 +290,7 @@ class Player:
         a.flags[0, s] = 0
         handle.slot = s
         self.handles[s] = handle
+        self._changed()
         # Events keyed at the very start fire on the first frame.
         handle._events_from_start = start_time == 0.0  # type: ignore[attr-defined]
 
@@ -298,6 +311,7 @@ class Player:
             a.effective[0, s] = 0.0
             h.slot, h.finished = -1, True
             self.handles[s] = None
+            self._changed()
 
     def _fire_events(self, h: PlayHandle, t0: float, t1: float, wrapped: bool, speed: float,
                      length: float) -> None:

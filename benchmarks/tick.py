@@ -1,0 +1,152 @@
+"""Milliseconds per character per frame: ``Character.tick`` alone and in a ``Crowd``.
+
+    .venv/bin/python benchmarks/tick.py [--frames 2000] [--crowd 1000] [--quick]
+
+Prints a table and ends with one JSON line: bodies, channels, single_ms (median tick of
+one 25-body humanoid playing the 12-channel ``perform`` animation), crowd_size,
+crowd_ms_per_character, stages (median ms per stage, single character), scaling (single
+tick median for 25, 51 and 80 bodies), cold_start_s (first tick in a fresh process with
+an empty numba cache) and warm_start_s (the same with the cache filled). The paper's
+figure: 0.2 ms per 25-body character frame on a 1.7 GHz Pentium-M.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import engine  # noqa: E402
+from engine import runtime as R  # noqa: E402
+from engine.anim import load_animation  # noqa: E402
+
+DT = 1 / 60
+FIRST_TICK = """
+import time, sys
+t0 = time.perf_counter()
+sys.path.insert(0, {root!r})
+import engine
+from engine.anim import load_animation
+c = engine.load_creature({root!r} + '/creatures/humanoid.yaml')
+ch = engine.Character(c)
+ch.play(load_animation({root!r} + '/animations/perform.yaml'))
+ch.tick(1 / 60)
+print(time.perf_counter() - t0)
+"""
+
+
+def start_time(cache_dir: str) -> float:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    out = subprocess.run([sys.executable, "-c", FIRST_TICK.format(root=ROOT)], env=env, capture_output=True,
+                         text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def timed_tick(ch: R.Character, times: dict[str, list[float]]) -> None:
+    """One tick, stage by stage, as ``Character.tick`` runs them."""
+    pc = time.perf_counter
+    t0 = pc()
+    ch.player.advance(DT)
+    t1 = pc()
+    R._sample_character(ch)
+    t2 = pc()
+    R._blend_stack(ch._stack, ch.player)
+    t3 = pc()
+    R._solve_character(ch)
+    t4 = pc()
+    R._output_stack(ch._stack, ch.jiggle_rig, DT, True)
+    t5 = pc()
+    for name, a, b in (("player", t0, t1), ("sample_specialize", t1, t2), ("blend", t2, t3), ("ik", t3, t4),
+                       ("jiggle_output", t4, t5)):
+        times[name].append((b - a) * 1e3)
+
+
+def single(creature, anim, frames: int) -> tuple[float, dict[str, float]]:
+    ch = engine.Character(creature)
+    ch.play(anim)
+    for _ in range(200):
+        ch.tick(DT)
+    ticks = []
+    for _ in range(frames):
+        t = time.perf_counter()
+        ch.tick(DT)
+        ticks.append(time.perf_counter() - t)
+    stages: dict[str, list[float]] = {k: [] for k in ("player", "sample_specialize", "blend", "ik", "jiggle_output")}
+    for _ in range(frames):
+        timed_tick(ch, stages)
+    return float(np.median(ticks) * 1e3), {k: float(np.median(v)) for k, v in stages.items()}
+
+
+def crowd(creature, anim, n: int, frames: int) -> float:
+    chars = [engine.Character(creature, position=(k % 40, k // 40, 0)) for k in range(n)]
+    nvar = engine.bind(anim, creature).nvariant
+    for k, ch in enumerate(chars):
+        ch.play(anim, variant=k % nvar, speed=0.8 + 0.4 * (k / n))
+    group = engine.Crowd(chars)
+    for _ in range(5):
+        group.tick(DT)
+    ticks = []
+    for _ in range(frames):
+        t = time.perf_counter()
+        group.tick(DT)
+        ticks.append(time.perf_counter() - t)
+    return float(np.median(ticks) * 1e3 / n)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--frames", type=int, default=2000)
+    ap.add_argument("--crowd", type=int, default=1000)
+    ap.add_argument("--crowd-frames", type=int, default=20)
+    ap.add_argument("--quick", action="store_true", help="fewer frames, no start-up measurement")
+    args = ap.parse_args()
+    if args.quick:
+        args.frames, args.crowd_frames = 300, 5
+
+    anim = load_animation(os.path.join(ROOT, "animations", "perform.yaml"))
+    human = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
+    single_ms, stages = single(human, anim, args.frames)
+    scaling = {}
+    for name in ("humanoid", "scorpion", "spikebeast"):
+        c = engine.load_creature(os.path.join(ROOT, "creatures", f"{name}.yaml"))
+        scaling[str(c.nbody)] = single(c, anim, max(args.frames // 4, 100))[0]
+    crowd_ms = crowd(human, anim, args.crowd, args.crowd_frames)
+    cold = warm = None
+    if not args.quick:
+        with tempfile.TemporaryDirectory() as cache:
+            cold = start_time(cache)
+            warm = start_time(cache)
+
+    print(f"{'figure':<34}{'value':>12}")
+    print("-" * 46)
+    print(f"{'bodies':<34}{human.nbody:>12}")
+    print(f"{'channels':<34}{anim.nchannel:>12}")
+    print(f"{'single tick, ms (median)':<34}{single_ms:>12.4f}")
+    for k, v in stages.items():
+        print(f"{'  stage ' + k + ', ms':<34}{v:>12.4f}")
+    for k, v in scaling.items():
+        print(f"{'  ' + k + ' bodies, ms':<34}{v:>12.4f}")
+    print(f"{'crowd of ' + str(args.crowd) + ', ms per character':<34}{crowd_ms:>12.4f}")
+    if cold is not None:
+        print(f"{'cold start (empty numba cache), s':<34}{cold:>12.2f}")
+        print(f"{'warm start (numba cache), s':<34}{warm:>12.2f}")
+    print(json.dumps({"bodies": human.nbody, "channels": anim.nchannel, "single_ms": round(single_ms, 5),
+                      "crowd_size": args.crowd, "crowd_ms_per_character": round(crowd_ms, 5),
+                      "stages": {k: round(v, 5) for k, v in stages.items()},
+                      "scaling_ms_by_bodies": {k: round(v, 5) for k, v in scaling.items()},
+                      "cold_start_s": None if cold is None else round(cold, 2),
+                      "warm_start_s": None if warm is None else round(warm, 2),
+                      "paper_ms": 0.2}))
+
+
+if __name__ == "__main__":
+    main()
