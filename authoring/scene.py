@@ -562,6 +562,16 @@ class Camera:
         px[:, 1] = (1.0 - ndc[:, 1]) * 0.5 * height
         return px, clip[:, 3]
 
+    def ray(self, x: float, y: float, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """World ray (origin at the eye, unit direction) through pixel (x right, y down from
+        the top row) of a width x height picture: the inverse of ``project``."""
+        right, up, back = self.basis()
+        tan_v = math.tan(self.fov_y / 2.0)
+        nx = 2.0 * x / width - 1.0
+        ny = 1.0 - 2.0 * y / height
+        d = -back + nx * tan_v * (width / height) * right + ny * tan_v * up
+        return self.eye(), d / np.linalg.norm(d)
+
     # Interactive moves (the window maps mouse drags onto these).
     def orbit(self, d_azimuth: float, d_elevation: float) -> None:
         """Turn around the target; elevation stays within (-89, 89) degrees."""
@@ -623,6 +633,54 @@ def frame_camera(bounds, aspect: float, *, points=None, azimuth: float = DEFAULT
     cam.near = max(cam.distance - float(z.max()) - radius, cam.distance * 0.01)
     cam.far = cam.distance + radius * 6.0 + cam.distance
     return cam
+
+
+# -- picking -------------------------------------------------------------------------------------
+
+
+def pick(scene: Scene, camera: Camera, x: float, y: float, width: int,
+         height: int) -> tuple[int, int] | None:
+    """(actor index, body index) of the nearest body box under pixel (x, y) (x right, y
+    down from the top) of a width x height picture drawn with ``camera``, or None.
+
+    The ray through the pixel is tested against every box in its own frame (the slab
+    method: the ray is inside the box where it is inside all three pairs of planes)."""
+    origin, direction = camera.ray(x, y, width, height)
+    best, best_t = None, math.inf
+    for k, a in enumerate(scene.actors):
+        # Into the actor's pose frame: p = (world - offset) / scale.
+        o = (origin - a.offset) / a.scale
+        m = quat_to_matrix(a.world_rotations)  # (n, 3, 3), columns are the box axes
+        rel = o[None, :] - a.world_positions
+        o_local = np.einsum("nji,nj->ni", m, rel)
+        d_local = np.einsum("nji,j->ni", m, direction)
+        ext = a.draw_extent
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t1 = (-ext - o_local) / d_local
+            t2 = (ext - o_local) / d_local
+        inside = np.abs(o_local) <= ext
+        parallel = d_local == 0.0
+        t1 = np.where(parallel, np.where(inside, -np.inf, np.inf), t1)
+        t2 = np.where(parallel, np.where(inside, np.inf, -np.inf), t2)
+        t_near = np.max(np.minimum(t1, t2), axis=1)
+        t_far = np.min(np.maximum(t1, t2), axis=1)
+        hit = (t_near <= t_far) & (t_far > 0.0)
+        if not np.any(hit):
+            continue
+        t = np.where(hit, np.maximum(t_near, 0.0), np.inf)
+        i = int(np.argmin(t))
+        if t[i] * a.scale < best_t:  # distances along the world ray
+            best, best_t = (k, i), float(t[i] * a.scale)
+    return best
+
+
+def describe_body(creature: Creature, body: int) -> str:
+    """One line about a body for people: name, capabilities, parent and box size."""
+    parent = int(creature.body_parent[body])
+    caps = ", ".join(creature.caps_of(body)) or "no capabilities"
+    size = " x ".join(f"{2 * e:.3g}" for e in creature.body_extent[body])
+    up = f"child of {creature.body_names[parent]}" if parent >= 0 else "root"
+    return f"{creature.name}: {creature.body_names[body]} ({caps}; {up}; box {size} m)"
 
 
 # -- the ground grid -----------------------------------------------------------------------------

@@ -11,6 +11,7 @@ The window (``ViewerWindow``) shows "pages": for several actors, first all of th
 each alone. Controls:
 
     left drag         orbit                 right drag / scroll   zoom
+    left click        name the body under the cursor (capabilities, parent, size)
     middle drag       pan (or shift + left drag)
     left / right      previous / next page  (also page up / page down, n / p)
     a                 the page with everyone
@@ -34,7 +35,7 @@ from authoring import render as rd
 from authoring import scene as sc
 from engine.model.creature import Creature
 
-HELP_TEXT = ("drag: orbit   right drag/scroll: zoom   middle or shift drag: pan   "
+HELP_TEXT = ("click: name a body   drag: orbit   right drag/scroll: zoom   middle or shift drag: pan   "
              "\u2190/\u2192: page   a: all   f: frame   j/g/e/l: joints/grid/edges/labels   "
              "space: pause   .: step   s: save PNG   h: help   q: quit")
 
@@ -196,6 +197,8 @@ class ViewerWindow:
         self.last_saved: str | None = None
         self.closed = False
         self.paused = False
+        self.selected: tuple[int, int] | None = None  # (actor, body) last clicked
+        self._press = None
         # A plain double-buffered window: the renderer antialiases in its own multisampled
         # framebuffer and copies the result in (a blit into a multisampled window
         # framebuffer is not allowed).
@@ -215,6 +218,7 @@ class ViewerWindow:
                                        width=max(window.width - 16, 100),
                                        color=(40, 42, 48, 255))
         self._title = pyglet.text.Label("", x=8, y=window.height - 8, anchor_y="top", font_size=12,
+                                        multiline=True, width=max(window.width - 16, 100),
                                         color=(30, 32, 38, 255))
         self._key, self._mouse = key, mouse
 
@@ -228,12 +232,24 @@ class ViewerWindow:
             self.renderer.resize(fw, fh)
             self._title.y = h - 8
             self._help.width = max(w - 16, 100)  # the help text wraps to the window
+            self._title.width = max(w - 16, 100)
             # Not handled here: pyglet's own handler then sets the viewport and the 2-D
             # projection the help text is drawn with.
 
         @window.event
         def on_mouse_drag(x, y, dx, dy, buttons, modifiers):
             self.drag(dx, dy, buttons, modifiers)
+
+        @window.event
+        def on_mouse_press(x, y, button, modifiers):
+            self._press = (x, y)
+
+        @window.event
+        def on_mouse_release(x, y, button, modifiers):
+            # A click (no drag) on a body names it in the title line.
+            px, py = self._press if self._press is not None else (x, y)
+            if button == mouse.LEFT and abs(x - px) + abs(y - py) <= 3:
+                self.click(x, y)
 
         @window.event
         def on_mouse_scroll(x, y, scroll_x, scroll_y):
@@ -270,11 +286,19 @@ class ViewerWindow:
     def go(self, page: int) -> None:
         """Show page ``page`` (wraps around) and frame it."""
         self.page = page % len(self.pages)
+        self.selected = None
         self.reframe()
 
     def reframe(self) -> None:
         r = self.renderer
         self.camera = self.scene.auto_camera(r.width / r.height)
+
+    def click(self, x: float, y: float) -> tuple[int, int] | None:
+        """Select the body under window point (x, y) (pyglet's coordinates: y up)."""
+        fw, fh = self.window.get_framebuffer_size()
+        sx, sy = fw / max(self.window.width, 1), fh / max(self.window.height, 1)
+        self.selected = sc.pick(self.scene, self.camera, x * sx, fh - y * sy, fw, fh)
+        return self.selected
 
     def drag(self, dx: float, dy: float, buttons: int, modifiers: int) -> None:
         mouse, key = self._mouse, self._key
@@ -357,7 +381,11 @@ class ViewerWindow:
         gl.glViewport(0, 0, fw, fh)
         names = ", ".join(a.creature.name for a in self.scene.actors[:6])
         more = "" if len(self.scene.actors) <= 6 else f" and {len(self.scene.actors) - 6} more"
-        self._title.text = f"{self.page + 1}/{len(self.pages)}  {names}{more}"
+        info = ""
+        if self.selected is not None and self.selected[0] < len(self.scene.actors):
+            actor, body = self.selected
+            info = "\n" + sc.describe_body(self.scene.actors[actor].creature, body)
+        self._title.text = f"{self.page + 1}/{len(self.pages)}  {names}{more}{info}"
         self._title.draw()
         if self.show_help:
             self._help.draw()

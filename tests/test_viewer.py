@@ -317,6 +317,32 @@ def test_camera_looks_from_front_left_above_and_moves():
     assert cam.elevation <= math.radians(89.0) and math.isclose(cam.distance, d0)
 
 
+def test_ray_inverts_project_and_pick_finds_the_body(mini, twist):
+    cam = sc.frame_camera(np.array([[-0.5, -0.5, 0.0], [0.5, 0.5, 1.8]]), 4 / 3)
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-1, 2, size=(20, 3))
+    px, depth = cam.project(pts, 400, 300)
+    _, _, back = cam.basis()
+    for p, (x, y), depth_p in zip(pts, px, depth, strict=True):
+        origin, direction = cam.ray(x, y, 400, 300)
+        # The point lies on the ray, in front of the eye at its camera depth.
+        along = np.dot(p - origin, direction)
+        np.testing.assert_allclose(origin + along * direction, p, atol=1e-9)
+        assert math.isclose(along * np.dot(direction, -back), depth_p, rel_tol=1e-9)
+    # Picking: the pixel of an unoccluded body's centre picks that body, in either actor
+    # (the second one moved and scaled); empty sky picks nothing.
+    scene = sc.Scene(actors=[sc.Actor(mini), sc.Actor(twist, offset=(0, 1.5, 0.2), scale=2.0)])
+    cam = scene.auto_camera(4 / 3)
+    for k, (a, name) in enumerate([(scene.actors[0], "head"), (scene.actors[0], "foot_l"),
+                                   (scene.actors[1], "arm")]):
+        i = a.creature.body(name)
+        (x, y), = cam.project(a.offset + a.scale * a.world_positions[i], 400, 300)[0]
+        assert sc.pick(scene, cam, x, y, 400, 300) == (0 if k < 2 else 1, i)
+    assert sc.pick(scene, cam, 2, 2, 400, 300) is None
+    text = sc.describe_body(mini, mini.body("head"))
+    assert text.startswith("mini: head (mouth, head; child of chest; box 0.2 x 0.2 x 0.24 m")
+
+
 def test_zoo_normalizes_sizes_and_keeps_creatures_apart(mini, twist):
     big = creature_from_text(MINI.replace("name: mini", "name: big").replace(
         "description: tiny test biped", "description: big"))
@@ -562,6 +588,18 @@ def test_window_controls_headless(renderer, mini, twist, tmp_path, monkeypatch):
         assert win.page == 2
         send("on_key_press", key.G, 0)
         assert not win.scene.show_grid
+        # A click on the creature's middle names a body; a click on the sky clears it.
+        fw, fh = w.get_framebuffer_size()
+        (x, y), = win.camera.project(win.scene.actors[0].world_bounds().mean(axis=0), fw, fh)[0]
+        wx, wy = x * w.width / fw, (fh - y) * w.height / fh
+        send("on_mouse_press", wx, wy, mouse.LEFT, 0)
+        send("on_mouse_release", wx, wy, mouse.LEFT, 0)
+        assert win.selected is not None and win.selected[0] == 0
+        win.draw()
+        assert "twist:" in win._title.text
+        send("on_mouse_press", 1, w.height - 1, mouse.LEFT, 0)
+        send("on_mouse_release", 1, w.height - 1, mouse.LEFT, 0)
+        assert win.selected is None
         win._tick(0.5)
         send("on_key_press", key.SPACE, 0)
         win._tick(0.5)  # paused: not passed on
