@@ -115,6 +115,7 @@ class Binding:
     secondaries: tuple          # per channel: int32 bodies its secondary query selects, or None
     group_names: tuple[str, ...]
     group_leader: tuple[int, ...]   # channel index leading each variant group
+    resting_groups: frozenset = frozenset()   # variant groups that select nothing here
     _bound: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -174,6 +175,11 @@ def _make_binding(animation: Animation, creature: Creature) -> Binding:
     secondaries = tuple(ch.secondary.evaluate(creature) if ch.secondary is not None else None
                         for ch in animation.channels)
     names, leaders = _variant_groups(animation)
+    # A variant group whose first channel selects nothing on this creature cannot vary:
+    # its channels rest (zero selected bodies is a valid answer), the others still play.
+    keep = [k for k, i in enumerate(leaders) if len(selections[i])]
+    resting = {names[k] for k in range(len(names)) if k not in keep}
+    names, leaders = [names[k] for k in keep], [leaders[k] for k in keep]
     if not names:
         variants = (Variant(0, DEFAULT_VARIANT, (), (), False),)
     else:
@@ -199,7 +205,8 @@ def _make_binding(animation: Animation, creature: Creature) -> Binding:
                    else "no combination of bodies satisfies the variant groups' side constraints")
             raise BindError(f"animation '{animation.name}' has no variant on creature '{creature.name}': {why}",
                             path=animation.path, field="variant_group")
-    return Binding(animation, creature, variants, selections, secondaries, tuple(names), tuple(leaders))
+    return Binding(animation, creature, variants, selections, secondaries, tuple(names), tuple(leaders),
+                   frozenset(resting))
 
 
 def _bind_variant(b: Binding, v: Variant) -> BoundVariant:
@@ -221,6 +228,8 @@ def _bind_variant(b: Binding, v: Variant) -> BoundVariant:
             # their partners (bodies without a partner stay).
             partner = creature.body_mirror[bodies]
             bodies = np.unique(np.where(partner >= 0, partner, bodies)).astype(np.int32)
+        if ch.variant_group in b.resting_groups:
+            continue
         if ch.variant_group is not None:
             g = ch.variant_group
             leader = b.group_leader[b.group_names.index(g)]
