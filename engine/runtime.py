@@ -154,7 +154,9 @@ class Character:
             self._inv_bind[b] = np.linalg.inv(_pose_matrix(creature.body_rest_pos[b], creature.body_rest_rot[b]))
         self._skin = np.zeros((n, 4, 4))
         self._frame = 0
-        self.tick_stage_seconds: dict[str, float] | None = None   # set by the benchmark
+        #: The locomotion controller (``engine.gait.GaitController``), made by the first
+        #: ``locomote`` call; None while the character has never been asked to move.
+        self.gait = None
 
     # -- views into the stack ----------------------------------------------------------
 
@@ -227,6 +229,30 @@ class Character:
     def clear_target(self, name: str) -> None:
         self._targets.pop(name, None)
 
+    # -- locomotion ----------------------------------------------------------------------
+
+    def locomote(self, velocity=(0.0, 0.0), turn_rate: float = 0.0) -> None:
+        """Move under the gait system: ``velocity`` (forward, left) in m/s in the
+        character's heading frame, ``turn_rate`` in rad/s about +Z (left positive). The
+        command may change discontinuously from frame to frame (stop, reverse, turn)."""
+        v = np.asarray(velocity, dtype=float)
+        if v.shape != (2,) or not np.all(np.isfinite(v)) or not math.isfinite(turn_rate):
+            raise ValueError(f"locomote: velocity must be 2 finite numbers and turn_rate finite, got "
+                             f"{velocity!r}, {turn_rate!r}")
+        self._ensure_gait().command(v, float(turn_rate))
+
+    def set_terrain(self, height, normal=None) -> None:
+        """The ground under the character: ``height(x, y) -> z`` in world space (and
+        optionally ``normal(x, y) -> (3,)``); None for the flat plane z = 0."""
+        self._ensure_gait().set_terrain(height, normal)
+
+    def _ensure_gait(self):
+        if self.gait is None:
+            from engine.gait import GaitController
+
+            self.gait = GaitController(self.creature)
+        return self.gait
+
     # -- playing -----------------------------------------------------------------------
 
     def binding(self, animation: Animation) -> Binding:
@@ -286,7 +312,8 @@ class Character:
             _sample_character(self)                     # 2-3. sample curves, specialize (S)
         if st.blend:
             _blend_stack(self._stack, self.player)      # 4. blend clips and layers into goals
-        # 5. gait: not yet; the root follows its animation channel (set by the blend)
+        if st.gait and self.gait is not None:
+            _gait_character(self, dt)                   # 5. gait: feet, hips, root motion
         _solve_character(self)                          # 6. IK (or the rest pose when off)
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
@@ -358,16 +385,24 @@ def _blend_stack(s: _Stack, player: Player) -> None:
                     s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos, s.root_rot)
 
 
+def _gait_character(char: Character, dt: float) -> None:
+    s, r = char._stack, char._row
+    char.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r], s.goal_rot[r],
+                   s.goal_pw[r], s.goal_rw[r])
+
+
 def _update_plan(char: Character) -> None:
     """The IK plan for the bodies the playing clips pose (rebuilt only when what plays
     changes; plans themselves are cached per creature and goal set)."""
-    key = char.player.version
+    key = char.player.version if char.gait is None else (char.player.version, char.gait.version)
     if key == char._plan_key and char._plan is not None:
         return
     goal_bodies = set()
     for h in char.player.handles:
         if h is not None:
             goal_bodies.update(int(b) for b in h.payload.bound.goal_bodies)
+    if char.gait is not None:
+        goal_bodies.update(int(b) for b in char.gait.goal_bodies)
     goal_bodies.discard(0)
     plan = plan_for(char.creature, sorted(goal_bodies), char.ik_params)
     if plan is not char._plan:
@@ -511,7 +546,11 @@ class _Group:
         # 4. blend: one kernel over the stack
         if st.blend:
             _blend_stack(s, ref.player)
-        # 5. gait: not yet (the root follows its animation channel)
+        # 5. gait: per member that locomotes (the controllers keep per-character state)
+        if st.gait:
+            for m in self.members:
+                if m.gait is not None:
+                    _gait_character(m, dt)
         # 6. IK: one kernel per IK plan over the members using it
         self._solve(st.ik)
         # 7-8. jiggle and world output: one kernel over the stack
@@ -560,7 +599,7 @@ class _Group:
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
-        version = sum(m.player.version for m in self.members)
+        version = sum(m.player.version + (0 if m.gait is None else m.gait.version) for m in self.members)
         if version == self._plans_version:
             return self._plan_list
         plans: dict[int, tuple] = {}
