@@ -11,17 +11,24 @@ Box2D v3 ``solver.c``), in 3-D. Each substep of length h:
                     frame), so thin fast-spinning limbs do not gain energy
     3. warm start   last substep's accumulated impulses (slots are persistent: ground
                     features and body pairs have fixed indices)
-    4. solve        ball joints, locked joints, PD servos, contacts (with bias: soft
-                    springs push drift out)
+    4. solve        PD servos, contacts (sequential impulses), then the ball and locked
+                    joints solved exactly on the body-joint tree (Baraff 1996, linear
+                    time; or sequential impulses with solver 'gauss-seidel'); with bias:
+                    position error is fed back at a soft rate
     5. positions    x += h v, q += h/2 (0, w) q
     6. relax        the same constraints without position bias, so the bias velocity
                     that pushed drift out does not stay in the bodies as energy
 
 Why this formulation (issue 7): a ragdoll of a creature has mass ratios of 100:1 and
-more (a CMU hand bone vs the hips). Plain penalty joints need stiffness that explodes
-with the mass ratio; sequential impulses with a 3x3 effective mass per ball joint handle
-the ratio exactly for one joint, and substepping (tiny h) makes Gauss-Seidel across the
-chain converge because the error per substep is O(h^2). Soft constraints (b2MakeSoft)
+more (the library's spider 5500:1, a CMU thumb against the hips). Plain penalty joints
+need stiffness that explodes with the mass ratio. Sequential impulses with substeps
+(Box2D v3) handle one joint exactly and converge across a chain as O(h^2) per substep,
+but a light body carrying heavy ones (a 20 g pelvis between two 2 kg legs, a heavy
+weight on a light rope) still opens its joints by millimetres. So the joints are solved
+directly: the saddle-point system [[M, J^T], [J, 0]] of a tree factors in linear time
+with no fill-in (Baraff, "Linear-Time Dynamics using Lagrange Multipliers", 1996), which
+makes every ball joint exact after each pass whatever the masses; contacts and servos,
+which are inequalities or soft, stay sequential impulses around it. Soft constraints (b2MakeSoft)
 are implicit springs, so the PD servos and the contact penalty are stable for any h and
 any gain, and every stiffness is a frequency in Hz with a damping ratio, mass-normalized
 by the constraint's effective mass: one setting works for a mouse and for a giant.
@@ -58,7 +65,8 @@ P_PAIR_HZ, P_PAIR_ZETA, P_PAIR_MU = 11, 12, 13
 P_JOINT_HZ, P_JOINT_ZETA = 14, 15
 P_MAX_PUSH, P_MARGIN = 16, 17
 P_TERRAIN_X0, P_TERRAIN_Y0, P_TERRAIN_CELL = 18, 19, 20
-NPARAM = 21
+P_SOLVER = 21          # 0: Gauss-Seidel ball joints, 1: direct tree solve
+NPARAM = 22
 
 # contact kinds per body
 KIND_NONE, KIND_GROUND, KIND_FOOT = 0, 1, 2
@@ -410,6 +418,9 @@ def _prepare(m, s, h):
                 u22 += P[j, 2, 2]
             _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
 
+    if m.params[P_SOLVER] != 0.0:
+        _factor_tree(m, s)
+
     # Ground contacts: each feature (capsule end sphere, box corner) against the terrain.
     x0 = m.params[P_TERRAIN_X0]
     y0 = m.params[P_TERRAIN_Y0]
@@ -608,12 +619,14 @@ def _warm_start(m, s):
     for j in range(m.joint_parent.shape[0]):
         a = m.joint_parent[j]
         b = m.joint_child[j]
-        px, py, pz = s.joint_imp[j, 0], s.joint_imp[j, 1], s.joint_imp[j, 2]
-        _apply(m, s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2], px, py, pz, -1.0)
-        _apply(m, s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2], px, py, pz, 1.0)
-        lx = s.joint_lock_imp[j, 0] + s.joint_pd_imp[j, 0]
-        ly = s.joint_lock_imp[j, 1] + s.joint_pd_imp[j, 1]
-        lz = s.joint_lock_imp[j, 2] + s.joint_pd_imp[j, 2]
+        if m.params[P_SOLVER] == 0.0:
+            px, py, pz = s.joint_imp[j, 0], s.joint_imp[j, 1], s.joint_imp[j, 2]
+            _apply(m, s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2], px, py, pz, -1.0)
+            _apply(m, s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2], px, py, pz, 1.0)
+        gs = 1.0 if m.params[P_SOLVER] == 0.0 else 0.0
+        lx = gs * s.joint_lock_imp[j, 0] + s.joint_pd_imp[j, 0]
+        ly = gs * s.joint_lock_imp[j, 1] + s.joint_pd_imp[j, 1]
+        lz = gs * s.joint_lock_imp[j, 2] + s.joint_pd_imp[j, 2]
         _apply_ang(s, a, lx, ly, lz, -1.0)
         _apply_ang(s, b, lx, ly, lz, 1.0)
     for f in range(m.feat_body.shape[0]):
@@ -646,7 +659,274 @@ def _warm_start(m, s):
 
 
 @njit(cache=True)
-def _solve_joints(m, s, h, use_bias):
+def _invert_into(A, d, out, work):
+    """out[:d, :d] = A[:d, :d]^-1 by Gauss-Jordan with partial pivoting (work: (6, 12));
+    a singular block gives zeros (a joint between two fixed bodies does nothing)."""
+    for r in range(d):
+        for c in range(d):
+            work[r, c] = A[r, c]
+            work[r, d + c] = 1.0 if r == c else 0.0
+    for col in range(d):
+        piv = col
+        best = abs(work[col, col])
+        for r in range(col + 1, d):
+            if abs(work[r, col]) > best:
+                best = abs(work[r, col])
+                piv = r
+        if best < 1e-300:
+            for r in range(d):
+                for c in range(d):
+                    out[r, c] = 0.0
+            return
+        if piv != col:
+            for c in range(2 * d):
+                t = work[col, c]
+                work[col, c] = work[piv, c]
+                work[piv, c] = t
+        inv = 1.0 / work[col, col]
+        for c in range(2 * d):
+            work[col, c] *= inv
+        for r in range(d):
+            if r != col:
+                f = work[r, col]
+                if f != 0.0:
+                    for c in range(2 * d):
+                        work[r, c] -= f * work[col, c]
+    for r in range(d):
+        for c in range(d):
+            out[r, c] = work[r, d + c]
+
+
+@njit(cache=True)
+def _node_dim(m, node):
+    """6 for a body, 3 for a ball joint, 6 for a locked joint (point + rotation rows)."""
+    nb = m.body_inv_mass.shape[0]
+    if node < nb:
+        return 6
+    return 6 if m.joint_locked[node - nb] != 0 else 3
+
+
+@njit(cache=True)
+def _edge_block(m, s, node, H):
+    """H[:d_node, :d_parent] = the off-diagonal block between a node and its parent in
+    the body-joint tree. A body's parent is its joint j: J_jb^T = [E; [r_b]x] (6x3). A
+    joint's parent is its parent body a: J_ja = [-E, [r_a]x] (3x6)."""
+    nb = m.body_inv_mass.shape[0]
+    for r in range(6):
+        for c in range(6):
+            H[r, c] = 0.0
+    if node < nb:
+        j = m.body_joint[node]
+        rx, ry, rz = s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2]
+        H[0, 0] = H[1, 1] = H[2, 2] = 1.0
+        H[3, 1], H[3, 2] = -rz, ry
+        H[4, 0], H[4, 2] = rz, -rx
+        H[5, 0], H[5, 1] = -ry, rx
+        if m.joint_locked[j] != 0:
+            # rotation rows of a locked joint: Cdot = w_b - w_a
+            H[3, 3] = H[4, 4] = H[5, 5] = 1.0
+    else:
+        j = node - nb
+        rx, ry, rz = s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2]
+        H[0, 0] = H[1, 1] = H[2, 2] = -1.0
+        H[0, 4], H[0, 5] = -rz, ry
+        H[1, 3], H[1, 5] = rz, -rx
+        H[2, 3], H[2, 4] = -ry, rx
+        if m.joint_locked[j] != 0:
+            H[3, 3] = H[4, 4] = H[5, 5] = -1.0
+
+
+@njit(cache=True)
+def _lock_error(m, s, j, a, b):
+    """Rotation vector (world) taking the locked target orientation q_a * rest to q_b."""
+    qa = s.body_rot[a]
+    qb = s.body_rot[b]
+    r = m.joint_rest_rot[j]
+    gw, gx, gy, gz = _qmul(qa[0], qa[1], qa[2], qa[3], r[0], r[1], r[2], r[3])
+    dw, dx, dy, dz = _qmul(qb[0], qb[1], qb[2], qb[3], gw, -gx, -gy, -gz)
+    return _qrotvec(dw, dx, dy, dz)
+
+
+@njit(cache=True)
+def _factor_tree(m, s):
+    """Baraff's linear-time factorization ("Linear-Time Dynamics using Lagrange
+    Multipliers", SIGGRAPH 1996) of [[M, J^T], [J, 0]] over the tree whose nodes are the
+    dynamic bodies (6x6 mass blocks) and the ball joints (3x3 zero blocks). Eliminating
+    leaves first creates no fill-in: D_i = H_ii - sum over children c of H_ci^T D_c^-1
+    H_ci, L_c = D_c^-1 H_c,parent. The joints are then solved exactly, whatever the mass
+    ratio, in O(bodies) per solve."""
+    nb = m.body_inv_mass.shape[0]
+    D = s.node_D
+    # diagonal blocks: body mass matrices, zero for joints
+    for k in range(m.node_order.shape[0]):
+        i = m.node_order[k]
+        for r in range(6):
+            for c in range(6):
+                D[i, r, c] = 0.0
+        if i < nb:
+            mass = 1.0 / m.body_inv_mass[i]
+            D[i, 0, 0] = D[i, 1, 1] = D[i, 2, 2] = mass
+            q = s.body_rot[i]
+            for ax in range(3):
+                cx, cy, cz = _qrot(q[0], q[1], q[2], q[3], 1.0 if ax == 0 else 0.0, 1.0 if ax == 1 else 0.0,
+                                   1.0 if ax == 2 else 0.0)
+                mom = m.body_inertia[i, ax]
+                D[i, 3, 3] += mom * cx * cx
+                D[i, 3, 4] += mom * cx * cy
+                D[i, 3, 5] += mom * cx * cz
+                D[i, 4, 4] += mom * cy * cy
+                D[i, 4, 5] += mom * cy * cz
+                D[i, 5, 5] += mom * cz * cz
+            D[i, 4, 3] = D[i, 3, 4]
+            D[i, 5, 3] = D[i, 3, 5]
+            D[i, 5, 4] = D[i, 4, 5]
+    H = s.node_H
+    # leaves first: invert, then pass the Schur complement up to the parent
+    for k in range(m.node_order.shape[0] - 1, -1, -1):
+        i = m.node_order[k]
+        d = _node_dim(m, i)
+        _invert_into(D[i], d, s.node_Dinv[i], s.node_work)
+        p = m.node_parent[i]
+        if p < 0:
+            continue
+        dp = _node_dim(m, p)
+        _edge_block(m, s, i, H)
+        L = s.node_L[i]
+        Di = s.node_Dinv[i]
+        for r in range(d):
+            for c in range(dp):
+                acc = 0.0
+                for t in range(d):
+                    acc += Di[r, t] * H[t, c]
+                L[r, c] = acc
+        for r in range(dp):
+            for c in range(dp):
+                acc = 0.0
+                for t in range(d):
+                    acc += H[t, r] * L[t, c]
+                D[p, r, c] -= acc
+
+
+@njit(cache=True)
+def _solve_points_direct(m, s, h, use_bias):
+    """Velocity update making every ball joint exact: J (v + dv) = -bias, with
+    dv = -M^-1 J^T mu from [[M, J^T], [J, 0]] [dv; mu] = [0; -(J v + bias)], solved on
+    the factored tree (forward, diagonal, back substitution). With ``use_bias`` the
+    position error C is fed back at the soft rate of the joint spring (b2MakeSoft's
+    bias rate), else the solve is rigid (the relax pass)."""
+    nb = m.body_inv_mass.shape[0]
+    jbias = 0.0
+    if use_bias:
+        jhz = m.params[P_JOINT_HZ]
+        jhz = 0.25 / h if jhz <= 0.0 else min(jhz, 0.25 / h)
+        jbias, _ms, _is = _soft(jhz, m.params[P_JOINT_ZETA], h)
+    x = s.node_x
+    # right-hand side: zero for bodies, -(J v + bias C) for joints
+    for k in range(m.node_order.shape[0]):
+        i = m.node_order[k]
+        for r in range(6):
+            x[i, r] = 0.0
+        if i >= nb:
+            j = i - nb
+            a = m.joint_parent[j]
+            b = m.joint_child[j]
+            vax, vay, vaz = _point_vel(s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2])
+            vbx, vby, vbz = _point_vel(s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2])
+            cx = cy = cz = 0.0
+            if use_bias:
+                pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
+                                             m.joint_anchor_parent[j, 2])
+                pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
+                                             m.joint_anchor_child[j, 2])
+                cx, cy, cz = jbias * (pbx - pax), jbias * (pby - pay), jbias * (pbz - paz)
+            x[i, 0] = -(vbx - vax + cx)
+            x[i, 1] = -(vby - vay + cy)
+            x[i, 2] = -(vbz - vaz + cz)
+            if m.joint_locked[j] != 0:
+                ex = ey = ez = 0.0
+                if use_bias:
+                    ex, ey, ez = _lock_error(m, s, j, a, b)
+                x[i, 3] = -(s.body_angvel[b, 0] - s.body_angvel[a, 0] + jbias * ex)
+                x[i, 4] = -(s.body_angvel[b, 1] - s.body_angvel[a, 1] + jbias * ey)
+                x[i, 5] = -(s.body_angvel[b, 2] - s.body_angvel[a, 2] + jbias * ez)
+    # forward (leaves first): x_parent -= L_i^T x_i; keep z_i = D_i^-1 x_i
+    H = s.node_H
+    z = s.node_z
+    for k in range(m.node_order.shape[0] - 1, -1, -1):
+        i = m.node_order[k]
+        d = _node_dim(m, i)
+        Di = s.node_Dinv[i]
+        for r in range(d):
+            acc = 0.0
+            for t in range(d):
+                acc += Di[r, t] * x[i, t]
+            z[i, r] = acc
+        p = m.node_parent[i]
+        if p >= 0:
+            dp = _node_dim(m, p)
+            L = s.node_L[i]
+            for c in range(dp):
+                acc = 0.0
+                for t in range(d):
+                    acc += L[t, c] * x[i, t]
+                x[p, c] -= acc
+    # back substitution (root first): x_i = z_i - L_i x_parent
+    for k in range(m.node_order.shape[0]):
+        i = m.node_order[k]
+        d = _node_dim(m, i)
+        p = m.node_parent[i]
+        if p >= 0:
+            dp = _node_dim(m, p)
+            L = s.node_L[i]
+            for r in range(d):
+                acc = 0.0
+                for t in range(dp):
+                    acc += L[r, t] * x[p, t]
+                x[i, r] = z[i, r] - acc
+        else:
+            for r in range(d):
+                x[i, r] = z[i, r]
+    # apply: body velocity changes; joint impulses lambda = -mu kept for reports
+    for k in range(m.node_order.shape[0]):
+        i = m.node_order[k]
+        if i < nb:
+            for c in range(3):
+                s.body_linvel[i, c] += x[i, c]
+                s.body_angvel[i, c] += x[i, 3 + c]
+        else:
+            j = i - nb
+            for c in range(3):
+                s.joint_imp[j, c] = -x[i, c]
+                if m.joint_locked[j] != 0:
+                    s.joint_lock_imp[j, c] = -x[i, 3 + c]
+
+
+@njit(cache=True)
+def _solve_point_gs(m, s, j, a, b, rax, ray, raz, rbx, rby, rbz, use_bias, jbias, jmass, jimp):
+    """One sequential-impulse update of ball joint j (3x3 effective mass, soft bias)."""
+    vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
+    vbx, vby, vbz = _point_vel(s, b, rbx, rby, rbz)
+    cdx, cdy, cdz = vbx - vax, vby - vay, vbz - vaz
+    bx = by = bz = 0.0
+    if use_bias:
+        pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
+                                     m.joint_anchor_parent[j, 2])
+        pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
+                                     m.joint_anchor_child[j, 2])
+        bx, by, bz = jbias * (pbx - pax), jbias * (pby - pay), jbias * (pbz - paz)
+    ex, ey, ez = _mat3_vec(s.joint_kinv, j, cdx + bx, cdy + by, cdz + bz)
+    px = -jmass * ex - jimp * s.joint_imp[j, 0]
+    py = -jmass * ey - jimp * s.joint_imp[j, 1]
+    pz = -jmass * ez - jimp * s.joint_imp[j, 2]
+    s.joint_imp[j, 0] += px
+    s.joint_imp[j, 1] += py
+    s.joint_imp[j, 2] += pz
+    _apply(m, s, a, rax, ray, raz, px, py, pz, -1.0)
+    _apply(m, s, b, rbx, rby, rbz, px, py, pz, 1.0)
+
+
+@njit(cache=True)
+def _solve_joints(m, s, h, use_bias, do_points):
     jbias, jmass, jimp = 0.0, 1.0, 0.0
     if use_bias:
         # joint softness: hz <= 0 asks for the stiffest stable spring, a quarter of the
@@ -659,26 +939,10 @@ def _solve_joints(m, s, h, use_bias):
         b = m.joint_child[j]
         rax, ray, raz = s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2]
         rbx, rby, rbz = s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2]
-        # -- ball and socket: the two anchors coincide --------------------------------
-        vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
-        vbx, vby, vbz = _point_vel(s, b, rbx, rby, rbz)
-        cdx, cdy, cdz = vbx - vax, vby - vay, vbz - vaz
-        bx = by = bz = 0.0
-        if use_bias:
-            pax, pay, paz = _world_point(m, s, a, m.joint_anchor_parent[j, 0], m.joint_anchor_parent[j, 1],
-                                         m.joint_anchor_parent[j, 2])
-            pbx, pby, pbz = _world_point(m, s, b, m.joint_anchor_child[j, 0], m.joint_anchor_child[j, 1],
-                                         m.joint_anchor_child[j, 2])
-            bx, by, bz = jbias * (pbx - pax), jbias * (pby - pay), jbias * (pbz - paz)
-        ex, ey, ez = _mat3_vec(s.joint_kinv, j, cdx + bx, cdy + by, cdz + bz)
-        px = -jmass * ex - jimp * s.joint_imp[j, 0]
-        py = -jmass * ey - jimp * s.joint_imp[j, 1]
-        pz = -jmass * ez - jimp * s.joint_imp[j, 2]
-        s.joint_imp[j, 0] += px
-        s.joint_imp[j, 1] += py
-        s.joint_imp[j, 2] += pz
-        _apply(m, s, a, rax, ray, raz, px, py, pz, -1.0)
-        _apply(m, s, b, rbx, rby, rbz, px, py, pz, 1.0)
+        # -- ball and socket: the two anchors coincide (Gauss-Seidel variant; the direct
+        #    tree solve below replaces it when the model asks for it) ------------------
+        if do_points:
+            _solve_point_gs(m, s, j, a, b, rax, ray, raz, rbx, rby, rbz, use_bias, jbias, jmass, jimp)
 
         # -- angular: a locked joint holds its rest relative rotation (rigid, soft like
         #    the ball joint); otherwise the PD servo (Zordan et al. 2005 section 4):
@@ -687,6 +951,8 @@ def _solve_joints(m, s, h, use_bias):
         #    reduced with the parent's). Integrated implicitly as a soft angular
         #    constraint, so any gain is stable.
         locked = m.joint_locked[j] != 0
+        if locked and not do_points:
+            continue          # the direct tree solve holds locked joints exactly
         pd_hz = s.joint_pd_hz[j]
         if not locked and pd_hz <= 0.0:
             continue
@@ -949,13 +1215,18 @@ def step_kernel(m, s, dt, nsub, niter, nproject, nsteps):
             _prepare(m, s, h)
             _integrate_velocities(m, s, h)
             _warm_start(m, s)
+            direct = m.params[P_SOLVER] != 0.0
             for _it in range(niter):
-                _solve_joints(m, s, h, True)
+                _solve_joints(m, s, h, True, not direct)
                 _solve_contacts(m, s, h, True)
+                if direct:
+                    _solve_points_direct(m, s, h, True)
             _integrate_positions(m, s, h)
             for _it in range(niter):
-                _solve_joints(m, s, h, False)
+                _solve_joints(m, s, h, False, not direct)
                 _solve_contacts(m, s, h, False)
+                if direct:
+                    _solve_points_direct(m, s, h, False)
             for _it in range(nproject):
                 _project_joints(m, s)
         s.clock[0] += dt

@@ -88,7 +88,10 @@ class WorldSettings:
     """Everything global. ``joint_hz`` 0 means the stiffest stable joint spring (a
     quarter of the substep rate); ``max_push`` caps the speed (m/s) at which overlaps are
     pushed apart; ``margin`` is the speculative contact distance (m) on top of what the
-    bodies can travel in a substep."""
+    bodies can travel in a substep. ``solver`` 'direct' solves the ball joints exactly on
+    the body-joint tree each pass (Baraff 1996; any mass ratio), 'gauss-seidel' with
+    sequential impulses like the other constraints (cheaper, drifts O(h^2) with large
+    mass ratios)."""
 
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     foot: ContactSettings = DEFAULT_FOOT
@@ -98,6 +101,7 @@ class WorldSettings:
     joint_zeta: float = 1.0
     max_push: float = 3.0
     margin: float = 0.01
+    solver: str = "direct"
 
 
 # ---------------------------------------------------------------------------------------
@@ -252,6 +256,9 @@ class ModelArrays(NamedTuple):
     feat_spin_radius: np.ndarray
     pair_a: np.ndarray
     pair_b: np.ndarray
+    body_joint: np.ndarray
+    node_order: np.ndarray
+    node_parent: np.ndarray
     terrain_height: np.ndarray
     params: np.ndarray
 
@@ -284,6 +291,10 @@ class PhysicsModel:
         params[K.P_JOINT_HZ], params[K.P_JOINT_ZETA] = s.joint_hz, s.joint_zeta
         params[K.P_MAX_PUSH], params[K.P_MARGIN] = s.max_push, s.margin
         params[[K.P_TERRAIN_X0, K.P_TERRAIN_Y0, K.P_TERRAIN_CELL]] = (terrain.x0, terrain.y0, terrain.cell)
+        if s.solver not in ("direct", "gauss-seidel"):
+            raise PhysicsError(f"solver must be 'direct' or 'gauss-seidel', got '{s.solver}'", field="solver",
+                               kind="settings", subject="world")
+        params[K.P_SOLVER] = 1.0 if s.solver == "direct" else 0.0
         params.flags.writeable = False
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "arrays", ModelArrays(
@@ -472,6 +483,23 @@ def build_model(specs: list[BodySpec], *, terrain: Terrain | None = None,
         feat_radius=np.array(f_rad, np.float64), feat_spin_radius=np.array(f_spin, np.float64),
         pair_a=np.array(pairs_a, np.int32), pair_b=np.array(pairs_b, np.int32),
     )
+    # the body-joint tree of the direct joint solve: node b is body b, node n + j joint j;
+    # root first, each joint just before its child body; fixed bodies are not nodes
+    node_order, node_parent = [], np.full(n + nj, -1, np.int32)
+    for b in range(n):
+        j = int(body_joint[b])
+        if j >= 0:
+            a = j_parent[j]
+            if not fixed[a]:
+                node_parent[n + j] = a
+            if not (fixed[a] and fixed[b]):
+                node_order.append(n + j)
+            if not fixed[b]:
+                node_parent[b] = n + j
+        if not fixed[b]:
+            node_order.append(b)
+    arrays["node_order"] = np.array(node_order, np.int32)
+    arrays["node_parent"] = node_parent
     chars = []
     for c in sorted(set(character.tolist())):
         idx = np.flatnonzero(character == c)

@@ -76,6 +76,13 @@ class StateArrays(NamedTuple):
     pair_sep: np.ndarray
     pair_mass: np.ndarray
     pair_imp: np.ndarray
+    node_D: np.ndarray
+    node_Dinv: np.ndarray
+    node_L: np.ndarray
+    node_H: np.ndarray
+    node_work: np.ndarray
+    node_x: np.ndarray
+    node_z: np.ndarray
     clock: np.ndarray
 
 
@@ -102,7 +109,9 @@ class PhysicsState:
             feat_t1=z((f, 3)), feat_t2=z((f, 3)), feat_sep=z(f), feat_mass=z((f, 4)), feat_imp=z((f, 4)),
             pair_active=z(p, np.int32), pair_point=z((p, 3)), pair_ra=z((p, 3)), pair_rb=z((p, 3)),
             pair_local=z((p, 6)), pair_normal=z((p, 3)), pair_t1=z((p, 3)), pair_t2=z((p, 3)), pair_sep=z(p),
-            pair_mass=z((p, 3)), pair_imp=z((p, 3)), clock=z(2),
+            pair_mass=z((p, 3)), pair_imp=z((p, 3)),
+            node_D=z((n + j, 6, 6)), node_Dinv=z((n + j, 6, 6)), node_L=z((n + j, 6, 6)), node_H=z((6, 6)),
+            node_work=z((6, 12)), node_x=z((n + j, 6)), node_z=z((n + j, 6)), clock=z(2),
         )
 
     def __getattr__(self, name):

@@ -264,6 +264,7 @@ class MocapRig:
         parent = clip.joint_parent
         # bones: to the child joint, the mean of several children, or the end site
         bone = np.zeros((nj, 3))
+        reach = np.zeros(nj)          # mean distance to the children (a hub's size)
         for j in range(nj):
             kids = [c for c in range(nj) if parent[c] == j]
             vecs = [clip.joint_offset[c] for c in kids if np.linalg.norm(clip.joint_offset[c]) > 0]
@@ -271,15 +272,21 @@ class MocapRig:
                 vecs = [clip.joint_end_site[j]]
             if vecs:
                 bone[j] = to_menagerie_axes(np.mean(vecs, axis=0), self.scale)
+                reach[j] = float(np.mean([np.linalg.norm(v) for v in vecs])) * self.scale
         height = max(clip.standing_height() * self.scale, 1e-6)
         self.height = height
         length = np.linalg.norm(bone, axis=1)
         min_bone = 0.02 * height
-        self.is_capsule = (length > min_bone) & (mode != "independent")
-        # radius: a tenth of the bone, within 1%..5% of the actor's height
+        # a hub whose children pull apart (hips between two legs) has a short mean bone:
+        # it becomes a sphere sized by its reach, not a sliver
+        self.is_capsule = (length > min_bone) & (length > 0.5 * reach) & (mode != "independent")
+        # radius: a tenth of the bone, within 1%..5% of the actor's height; spheres half
+        # their reach (a pelvis), at least 1.5% of the height
         self.radius = np.clip(0.1 * length, 0.01 * height, 0.05 * height)
-        self.radius[~self.is_capsule] = 0.015 * height if mode == "independent" else np.clip(
-            0.1 * length[~self.is_capsule], 0.01 * height, 0.05 * height)
+        if mode == "independent":
+            self.radius[:] = 0.015 * height
+        else:
+            self.radius[~self.is_capsule] = np.clip(0.5 * reach[~self.is_capsule], 0.015 * height, 0.06 * height)
         self.bone_local = np.where(self.is_capsule[:, None], bone, 0.0)
         self.body_align = np.tile([1.0, 0.0, 0.0, 0.0], (nj, 1))
         centre_local = np.zeros((nj, 3))
