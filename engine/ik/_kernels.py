@@ -59,7 +59,7 @@ INT_FIELDS = (
     "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
     "goal_lp",             # (ngoal,) limb-phase particle the goal pins, -1 if none
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, the root (0) for a delegated one, else -1
-    "scratch_layout",      # (8,) offsets into the scratch blob (see ``_scratch_views``)
+    "scratch_layout",      # (9,) first row of each scratch block (see ``_scratch_views``)
 )
 FLOAT_FIELDS = (
     ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
@@ -342,7 +342,7 @@ def transport_frame(p0, v0, a0, p1, v1, a1, frame, t_from, t_to, nsub):
 # -- the soft length constraint (section 4.3.1) ----------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def soft_response(e, slope, band, width):
     """Correction for a relative length error ``e``, C1 and piecewise: ``slope * e``
     inside the band (soft: only part of a small error is removed per sweep), a quadratic
@@ -359,7 +359,7 @@ def soft_response(e, slope, band, width):
     return c if e >= 0.0 else -c
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
     """One nonlinear length correction (Jakobsen 2001): move both endpoints along the
     constraint axis, in inverse proportion to their masses, by the soft response to how
@@ -391,7 +391,7 @@ def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slop
         pos[b, j] -= wb * corr * d[j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def project_length(pos, parent, child, length, plo, phi):
     """Projection of reconstruction: put ``child`` on the ray from ``parent`` at a length
     within [plo, phi] * length (section 4.3.2, "Reconstruction")."""
@@ -450,21 +450,23 @@ def unpack(pi, pf, pf3, pf4):
 
 @njit(cache=True)
 def _scratch_views(P, scratch):
+    """Views of the scratch rows (scratch is (rows, 3) float64; per-particle scalars use
+    column 0 of their own rows, so every view is a plain slice)."""
     lay = P.scratch_layout
     nsp = P.sp_kind.shape[0]
     nlp = P.lp_body.shape[0]
     ngoal = P.goal_body.shape[0]
     nch = P.ch_particle.shape[0]
-    sp_pos = scratch[lay[0]:lay[0] + 3 * nsp].reshape((nsp, 3))
-    sp_inv = scratch[lay[1]:lay[1] + nsp]
-    lp_pos = scratch[lay[2]:lay[2] + 3 * nlp].reshape((nlp, 3))
-    lp_rest = scratch[lay[3]:lay[3] + 3 * nlp].reshape((nlp, 3))
-    lp_inv = scratch[lay[4]:lay[4] + nlp]
-    goal_joint = scratch[lay[5]:lay[5] + 3 * ngoal].reshape((ngoal, 3))
-    ch_tan = scratch[lay[6]:lay[6] + 3 * nch].reshape((nch, 3))
-    state = scratch[lay[7]:lay[7] + 4]
     ndg = P.dg_body.shape[0]
-    dg_target = scratch[lay[8]:lay[8] + 3 * ndg].reshape((ndg, 3))
+    sp_pos = scratch[lay[0]:lay[0] + nsp]
+    sp_inv = scratch[lay[1]:lay[1] + nsp, 0]
+    lp_pos = scratch[lay[2]:lay[2] + nlp]
+    lp_rest = scratch[lay[3]:lay[3] + nlp]
+    lp_inv = scratch[lay[4]:lay[4] + nlp, 0]
+    goal_joint = scratch[lay[5]:lay[5] + ngoal]
+    ch_tan = scratch[lay[6]:lay[6] + nch]
+    state = scratch[lay[7], :]
+    dg_target = scratch[lay[8]:lay[8] + ndg]
     return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target
 
 
@@ -774,31 +776,37 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             y = vadd(y, vscale(ghat, stretch * vdot(y, ghat)))
             set3(lp_pos, m, vadd(piv, y))
     # Goal particles at their goals (weighted), then the constraint iterations.
-    n_iter = int(prm[P_LIMB_OUTER]) * int(prm[P_LIMB_INNER])
-    _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_iter)
+    _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]), int(prm[P_LIMB_INNER]))
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     # The goal bodies' joint targets were converted from an estimated rotation (4.3.1);
     # now the rotation is known: convert again and, if that moved a target, let a few
-    # more sweeps follow it from the current pose.
-    moved = 0.0
-    for gi in range(P.goal_body.shape[0]):
-        i = P.goal_lp[gi]
-        if i < 0 or P.lp_parent[i] < 0:
-            continue
-        b = P.goal_body[gi]
-        if goal_pos_w[b] <= 0.0:
-            continue
-        target = vsub(v3(goal_pos, b), qrot(q4(out_rot, b), v3(P.b_joint_offset, b)))
-        moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
-        set3(goal_joint, gi, target)
-    if moved > 1e-9:
-        _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_INNER]) * 2)
+    # more iterations follow it from the current pose (a fixed-point iteration on the
+    # targets; it only runs for goals whose rotation is not fully given).
+    for _round in range(3):
+        moved = 0.0
+        for gi in range(P.goal_body.shape[0]):
+            i = P.goal_lp[gi]
+            if i < 0 or P.lp_parent[i] < 0:
+                continue
+            b = P.goal_body[gi]
+            if goal_pos_w[b] <= 0.0:
+                continue
+            target = vsub(v3(goal_pos, b), qrot(q4(out_rot, b), v3(P.b_joint_offset, b)))
+            moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
+            set3(goal_joint, gi, target)
+        if moved <= 1e-7:
+            break
+        _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, 3, int(prm[P_LIMB_INNER]))
         _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
 @njit(cache=True)
-def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_iter):
-    """Pin the goal particles (weighted) and run ``n_iter`` sweeps leaves inward."""
+def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
+    """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
+    constraints leaves inward, and an outward projection of every particle to its allowed
+    stretch from its parent. The inward sweeps carry the goal error toward the spine; the
+    projection carries what is left back out, so a chain settles in a few iterations
+    (the same projection ends the solve, section 4.3.3 "Reconstruction")."""
     prm = P.params
     slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
     for gi in range(P.goal_body.shape[0]):
@@ -809,16 +817,28 @@ def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_iter):
         set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
         lp_inv[i] = 1.0 - w
     nlc = P.lc_a.shape[0]
-    for _it in range(n_iter):
-        for c in range(nlc):
-            relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
-                             P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], 1.0, slope, band, width)
-        for gi in range(P.goal_body.shape[0]):
-            i = P.goal_lp[gi]
-            if i >= 0 and P.lp_parent[i] >= 0:
-                w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-                if 0.0 < w < 1.0:
+    nlp = P.lp_body.shape[0]
+    for _outer in range(n_outer):
+        if _outer > 0:
+            for i in range(nlp):
+                c = P.lp_con[i]
+                if c >= 0:
+                    project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
+            for gi in range(P.goal_body.shape[0]):
+                i = P.goal_lp[gi]
+                if i >= 0 and P.lp_parent[i] >= 0:
+                    w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                     set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+        for _inner in range(n_inner):
+            for c in range(nlc):
+                relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
+                                 P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], 1.0, slope, band, width)
+            for gi in range(P.goal_body.shape[0]):
+                i = P.goal_lp[gi]
+                if i >= 0 and P.lp_parent[i] >= 0:
+                    w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
+                    if 0.0 < w < 1.0:
+                        set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
 
 
 @njit(cache=True)

@@ -36,8 +36,8 @@ class IKParams:
 
     spine_outer: int = 5          # outer iterations of the spine phase (the paper's 5)
     spine_inner: int = 3          # constraint sweeps per outer iteration
-    limb_outer: int = 5           # outer iterations of the limb phase
-    limb_inner: int = 3           # sweeps per limb outer iteration
+    limb_outer: int = 8           # outer iterations of the limb phase
+    limb_inner: int = 2           # sweeps per limb outer iteration (then an outward projection)
     soft_slope: float = 0.5       # share of a small length error removed per sweep
     soft_band: float = 0.01       # relative error below which the constraint is soft
     soft_width: float = 0.04      # width of the C1 blend from soft to full correction
@@ -147,7 +147,7 @@ class IKPlan:
                           bodies, IK limb bodies)
     free_bodies (m,) int32 bodies left to the caller
     delegated {body: spine parent}  goals handed to the spine (mouths, heads)
-    scratch_size          float64 elements of scratch a solve needs
+    scratch_shape         shape of the (rows, 3) float64 scratch a solve needs
     """
 
     def __init__(self, creature, goal_bodies, params: IKParams = DEFAULT_PARAMS):
@@ -162,7 +162,8 @@ class IKPlan:
         self.ik_bodies = np.flatnonzero(self.has_ik).astype(np.int32)
         self.free_bodies = np.flatnonzero(~self.has_ik).astype(np.int32)
         self.spine_branch_bodies = tuple(info["branch_bodies"])
-        self.plan_i, self.plan_f, self.plan_f3, self.plan_f4, self.scratch_size = _pack(fields)
+        self.plan_i, self.plan_f, self.plan_f3, self.plan_f4, rows = _pack(fields)
+        self.scratch_shape = (rows, 3)
         for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.plan_i, self.plan_f, self.plan_f3,
                   self.plan_f4):
             a.flags.writeable = False
@@ -187,7 +188,7 @@ class IKPlan:
 
     def make_scratch(self, n: int | None = None) -> np.ndarray:
         """A scratch buffer for ``solve_ik`` (one buffer serves a whole batch too)."""
-        return np.zeros(self.scratch_size)
+        return np.zeros(self.scratch_shape)
 
     def __repr__(self) -> str:
         names = [self.creature.body_names[g] for g in self.goal_bodies]
@@ -530,7 +531,7 @@ def _build(c, goals: list[int], prm: IKParams):
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
     f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
     nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
-    sizes = [3 * nsp, nsp, 3 * nlp, 3 * nlp, nlp, 3 * ngoal, 3 * nch, 4, 3 * len(dg)]
+    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg)]  # rows of 3
     layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
     fields = dict(
         b_parent=i32(parent),

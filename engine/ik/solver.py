@@ -86,8 +86,15 @@ def _bad_array(name, a, shape):
     return IKError(f"expected a C-contiguous float64 array of shape {shape}, got {got}", field=name, subject=None)
 
 
+_F64 = np.dtype(np.float64)
+
+
 def _ok(a, shape):
-    return type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous
+    """A C-contiguous float64 array of this shape (cheap checks: this runs every solve)."""
+    if type(a) is not np.ndarray or a.shape != shape or a.dtype is not _F64:
+        return False
+    st = a.strides
+    return st[-1] == 8 and (len(st) == 1 or st[-2] == 8 * shape[-1]) and (len(st) < 3 or st[-3] == 8 * shape[-1] * shape[-2])
 
 
 def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
@@ -98,12 +105,12 @@ def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarr
     gp, gr, gpw, grw = goals.goal_pos, goals.goal_rot, goals.goal_pos_weight, goals.goal_rot_weight
     if not (_ok(root_pos, (3,)) and _ok(root_rot, (4,)) and _ok(gp, (n, 3)) and _ok(gr, (n, 4))
             and _ok(gpw, (n,)) and _ok(grw, (n,)) and _ok(out_pos, (n, 3)) and _ok(out_rot, (n, 4))
-            and _ok(scratch, (plan.scratch_size,))):
+            and _ok(scratch, plan.scratch_shape)):
         for name, a, shape in (("root_pos", root_pos, (3,)), ("root_rot", root_rot, (4,)),
                                ("goal_pos", gp, (n, 3)), ("goal_rot", gr, (n, 4)),
                                ("goal_pos_weight", gpw, (n,)), ("goal_rot_weight", grw, (n,)),
                                ("out_pos", out_pos, (n, 3)), ("out_rot", out_rot, (n, 4)),
-                               ("scratch", scratch, (plan.scratch_size,))):
+                               ("scratch", scratch, plan.scratch_shape)):
             if not _ok(a, shape):
                 raise _bad_array(name, a, shape)
     b = plan.blobs
@@ -129,7 +136,7 @@ def solve_ik_batch(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos, ou
     _check_array("goal_rot_weight", goals.goal_rot_weight, (c, n))
     _check_array("out_pos", out_pos, (c, n, 3))
     _check_array("out_rot", out_rot, (c, n, 4))
-    _check_array("scratch", scratch, (plan.scratch_size,))
+    _check_array("scratch", scratch, plan.scratch_shape)
     raise_on_bad = bad is None
     if bad is None:
         bad = np.empty(c, np.int64)
