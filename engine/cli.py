@@ -89,7 +89,9 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     if not os.path.exists(args.file):
         raise MenagerieError(f"{args.file}: no such file")
-    view_file(args.file, snapshot=args.snapshot)
+    out = view_file(args.file, snapshot=args.snapshot)
+    if out:
+        print(f"wrote {out}")
     return 0
 
 

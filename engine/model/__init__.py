@@ -9,6 +9,7 @@ from engine.model.caps import CAP_BIT, CAPABILITIES
 from engine.model.creature import Creature
 from engine.model.definition import FORMAT_VERSION, BodyDef, CreatureDef
 from engine.model.fileio import parse_creature_text, read_creature_def, write_creature_def
+from engine.model.random import generate_creatures, random_creature_def
 
 
 def load_creature(path: str | os.PathLike) -> Creature:
@@ -24,5 +25,5 @@ def creature_from_text(text: str, path: str | None = None) -> Creature:
 __all__ = [
     "BodyDef", "CAPABILITIES", "CAP_BIT", "Creature", "CreatureDef", "CreatureWarning",
     "FORMAT_VERSION", "build_creature", "creature_from_text", "load_creature",
-    "read_creature_def", "write_creature_def",
+    "generate_creatures", "random_creature_def", "read_creature_def", "write_creature_def",
 ]
