@@ -34,8 +34,8 @@ PROBES = {
 
 
 def run(code: str, cache: str) -> float:
-    prog = ("import time, sys; t0 = time.perf_counter(); R = %r; sys.path.insert(0, R)\n%s\n"
-            "print(time.perf_counter() - t0)") % (ROOT, code)
+    prog = (f"import time, sys; t0 = time.perf_counter(); R = {ROOT!r}; sys.path.insert(0, R)\n{code}\n"
+            "print(time.perf_counter() - t0)")
     env = dict(os.environ, NUMBA_CACHE_DIR=cache)
     out = subprocess.run([sys.executable, "-c", prog], env=env, capture_output=True, text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])
