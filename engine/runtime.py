@@ -167,6 +167,8 @@ class Character:
         self.world_rotations = s.world_rot[r]      # (nbody, 4) world, w-first
         self.pose_positions = s.char_pos[r]        # (nbody, 3) character space
         self.pose_rotations = s.char_rot[r]
+        # One-element views of each slot's clip time, made once (no slicing per frame).
+        self._slot_time = [s.player.time[r, k : k + 1] for k in range(self.player.nslot)]
 
     def _move_to(self, stack: _Stack, row: int) -> None:
         stack.copy_row(row, self._stack, self._row)
@@ -363,7 +365,6 @@ def _fill_external(char: Character, clip: _Clip, table_row: np.ndarray) -> None:
 
 def _sample_character(char: Character) -> None:
     s, r = char._stack, char._row
-    a = s.player
     for slot, h in enumerate(char.player.handles):
         if h is None:
             continue
@@ -373,7 +374,7 @@ def _sample_character(char: Character) -> None:
         RK.fill_body_rows(clip.table, clip.n_ext, s.char_pos, _ROW[r])
         bv = clip.bound
         RK.goals_pairs(clip.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, clip.table,
-                       a.time[r, slot : slot + 1], _ROW[r], _ROW[slot], c.body_rest_pos, c.body_rest_rot,
+                       char._slot_time[slot], _ROW[r], _ROW[slot], c.body_rest_pos, c.body_rest_rot,
                        clip.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
 
 
@@ -580,22 +581,24 @@ class _Group:
                 buf.pair_char[i] = row
                 buf.pair_slot[i] = slot
             external = [(i, clip, m) for i, (_, _, clip, m) in enumerate(pairs) if clip.n_ext]
-            out.append((buf, clip0, len(pairs), external))
+            k = len(pairs)
+            # Views made once per change, not per frame.
+            out.append((clip0, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k], external))
         self._pair_list, self._pairs_version = out, version
         return out
 
     def _sample(self) -> None:
         s = self.stack
         c = self.creature
-        for buf, clip0, k, external in self._pair_groups():
-            RK.gather_times(s.player.time, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k])
+        for clip0, pair_char, pair_slot, times, tables, external in self._pair_groups():
+            RK.gather_times(s.player.time, pair_char, pair_slot, times)
             for i, clip, m in external:
-                _fill_external(m, clip, buf.tables[i])
-            RK.fill_body_rows(buf.tables[:k], clip0.n_ext, s.char_pos, buf.pair_char[:k])
+                _fill_external(m, clip, tables[i])
+            RK.fill_body_rows(tables, clip0.n_ext, s.char_pos, pair_char)
             bv = clip0.bound
-            RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, buf.tables[:k],
-                           buf.times[:k], buf.pair_char[:k], buf.pair_slot[:k], c.body_rest_pos, c.body_rest_rot,
-                           clip0.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
+            RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
+                           pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
+                           s.sg_rot, s.sg_pw, s.sg_rw)
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
