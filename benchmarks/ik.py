@@ -86,12 +86,12 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
         elif stage == 1:
             acc += K.check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, gpw, grw)
         elif stage == 2:
-            K._goal_targets(P, rp, rr, goal_pos, goal_rot, grw, goal_joint)
-            K._delegated_targets(P, goal_rot, goal_joint, dg_target)
+            K._goal_targets(P, rp, rr, goal_pos, goal_rot, gpw, grw, goal_joint)
+            K._delegated_targets(P, goal_rot, grw, goal_joint, dg_target)
         elif stage == 3:
             K._spine_phase(P, rp, rr, gpw, grw, goal_joint, dg_target, sp_pos, sp_inv, state)
         elif stage == 4:
-            K._spine_reconstruct(P, rp, rr, gpw, goal_rot, grw, sp_pos, ch_tan, out_pos, out_rot)
+            K._spine_reconstruct(P, rp, rr, gpw, goal_rot, grw, sp_pos, ch_tan, out_pos, out_rot, state[0])
             K._place_rigid(P, out_pos, out_rot)
         elif stage == 5:
             K._limb_phase(P, goal_pos, gpw, goal_rot, grw, goal_joint, lp_pos, lp_rest, lp_inv, out_pos, out_rot)

@@ -474,13 +474,18 @@ def _scratch_views(P, scratch):
 
 
 @njit(cache=True)
-def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_rot_w, goal_joint):
+def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint):
     """Section 4.3.1: 6-DOF goals become 3-DOF goals at the body's joint. The body's
     rotation at the goal is the rotation goal where one is given (blended by its weight
     into the estimate), else an estimate: the rest rotation aimed along its limb's chord
     from the limb root to the goal (the same minimal-twist aim the limb phase starts from)."""
     for gi in range(P.goal_body.shape[0]):
         g = P.goal_body[gi]
+        if goal_pos_w[g] <= 0.0:
+            # No position goal: the target is never pulled on, but keep it finite (the
+            # caller's unused goal_pos row may hold anything).
+            set3(goal_joint, gi, vadd(root_pos, qrot(root_rot, v3(P.b_rootrel_joint, g))))
+            continue
         rest_rot = qmul(root_rot, q4(P.b_rootrel_rot, g))
         est = rest_rot
         lr = P.goal_limb_root[gi]
@@ -497,12 +502,15 @@ def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_rot_w, goal_jo
 
 
 @njit(cache=True)
-def _delegated_targets(P, goal_rot, goal_joint, dg_target):
+def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
     """A delegated goal with a rotation fixes its spine body's rotation, so it also gives
     that spine body's joint a target: the delegated joint's target minus the chord turned
     by that rotation (the 6-DOF goal converted at the spine body's joint, 4.3.1)."""
     for d in range(P.dg_body.shape[0]):
         db = P.dg_body[d]
+        if goal_rot_w[db] <= 0.0:
+            set3(dg_target, d, v3(goal_joint, P.dg_goal[d]))  # unused; finite
+            continue
         spine_rot = qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db)))
         set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
 
@@ -623,7 +631,7 @@ def _root_influence(P, root_pos, root_rot, sp_pos):
 
 @njit(cache=True)
 def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
-                       out_pos, out_rot):
+                       out_pos, out_rot, buckle):
     """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
     allowed shrink/stretch, tangents by the three-point and natural-end formulas, minimal
     twist from the rest tangent, delegated goals blended in, interior bodies by frame
@@ -665,14 +673,16 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             acc_r = vadd(acc_r, vscale(qrot(rot, v3(P.dg_chord, d)), w))
             acc_p = vadd(acc_p, vscale(vsub(v3(sp_pos, P.dg_particle[d]), v3(sp_pos, i)), w))
         if vnorm(acc_r) > EPS and vnorm(acc_p) > EPS:
-            rot = qmul(qbetween(acc_r, acc_p), rot)
+            # When the spine buckled it is blended toward rest, and so is this swing
+            # (else an unreachable delegated goal folds the end body over).
+            rot = qslerp(rot, qmul(qbetween(acc_r, acc_p), rot), 1.0 - buckle)
         # Delegated rotation goals: the spine body takes the rotation that puts the
         # delegating body on its goal, blended by the goal's weight.
         for d in range(P.dg_body.shape[0]):
             if P.dg_spine_particle[d] != i:
                 continue
             db = P.dg_body[d]
-            wr = min(max(goal_rot_w[db], 0.0), 1.0)
+            wr = min(max(goal_rot_w[db], 0.0), 1.0) * (1.0 - buckle)
             if wr > 0.0:
                 rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db))), wr)
         set4(out_rot, s, rot)
@@ -909,13 +919,30 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
     reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
     sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target = _scratch_views(P, scratch)
     rr = qnormalize(root_rot)
-    _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_rot_w, goal_joint)
-    _delegated_targets(P, goal_rot, goal_joint, dg_target)
-    _spine_phase(P, root_pos, rr, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv, state)
-    rr = _root_influence(P, root_pos, rr, sp_pos)
-    _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
-                       out_pos, out_rot)
-    _place_rigid(P, out_pos, out_rot)
+    _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint)
+    _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target)
+    root_rot_in = rr
+    for _round in range(3):
+        _spine_phase(P, root_pos, root_rot_in, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
+                     state)
+        rr = _root_influence(P, root_pos, root_rot_in, sp_pos)
+        _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
+                           out_pos, out_rot, state[0])
+        _place_rigid(P, out_pos, out_rot)
+        # A delegated goal without a full rotation goal was converted to its joint with an
+        # estimated rotation; convert again with the rotation the spine gave it and, if
+        # the target moved, solve the spine again (from rest: still path independent).
+        moved = 0.0
+        for d in range(P.dg_body.shape[0]):
+            db = P.dg_body[d]
+            if goal_pos_w[db] <= 0.0 or goal_rot_w[db] >= 1.0:
+                continue
+            gi = P.dg_goal[d]
+            target = vsub(v3(goal_pos, db), qrot(q4(out_rot, db), v3(P.b_joint_offset, db)))
+            moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
+            set3(goal_joint, gi, target)
+        if moved <= 1e-7:
+            break
     _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot)
 
