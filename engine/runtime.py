@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine import _runtime_kernels as RK
+from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
 from engine.anim.evaluate import default_target, make_scratch
@@ -63,7 +64,7 @@ class Stages:
 class _Clip:
     """What the runtime attaches to a playing clip: the bound variant and its buffers."""
 
-    __slots__ = ("animation", "binding", "bound", "scratch", "table", "n_ext")
+    __slots__ = ("animation", "binding", "bound", "scratch", "table", "n_ext", "calls")
 
     def __init__(self, animation: Animation, binding: Binding, bound: BoundVariant) -> None:
         self.animation = animation
@@ -72,6 +73,22 @@ class _Clip:
         self.scratch = make_scratch(animation, bound)
         self.n_ext = len(bound.target_names)
         self.table = np.zeros((1, self.n_ext + binding.creature.nbody, 3))
+        self.calls: dict = {}      # (stack id, row, slot) -> (fill rows, goals) bound kernels
+
+    def bound_calls(self, char: Character, slot: int) -> tuple:
+        s, r = char._stack, char._row
+        key = (id(s), r, slot)
+        hit = self.calls.get(key)
+        if hit is None:
+            c = char.creature
+            bv = self.bound
+            hit = (BoundKernel(RK.fill_body_rows, (self.table, self.n_ext, s.char_pos, _ROW[r])),
+                   BoundKernel(RK.goals_pairs, (self.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
+                                                self.table, char._slot_time[slot], _ROW[r], _ROW[slot],
+                                                c.body_rest_pos, c.body_rest_rot, self.scratch, s.sg_pos, s.sg_rot,
+                                                s.sg_pw, s.sg_rw)))
+            self.calls = {key: hit}   # a clip plays in one place at a time
+        return hit
 
 
 class _Stack:
@@ -112,6 +129,9 @@ class _Stack:
         self.lay_rot = np.zeros((nb, 4))
         self.lay_pw = np.zeros(nb)
         self.lay_rw = np.zeros(nb)
+        # Kernels bound to these arrays (engine._fastcall), made on first use.
+        self.blend_call = None
+        self.output_call = None
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
@@ -142,6 +162,7 @@ class Character:
         self.jiggle_rig = JiggleRig.for_creature(creature)
         self._targets: dict[str, np.ndarray] = {}
         self._plan_key: int | None = None
+        self._solve_call = None
         self._plan = None
         self._scratch_ik = None
         self._stack = _Stack(creature, 1, nslot, nlayer)
@@ -370,20 +391,20 @@ def _sample_character(char: Character) -> None:
             continue
         clip: _Clip = h.payload
         _fill_external(char, clip, clip.table[0])
-        c = char.creature
-        RK.fill_body_rows(clip.table, clip.n_ext, s.char_pos, _ROW[r])
-        bv = clip.bound
-        RK.goals_pairs(clip.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, clip.table,
-                       char._slot_time[slot], _ROW[r], _ROW[slot], c.body_rest_pos, c.body_rest_rot,
-                       clip.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw)
+        fill, goals = clip.bound_calls(char, slot)
+        fill.call()
+        goals.call()
 
 
 def _blend_stack(s: _Stack, player: Player) -> None:
-    c = s.creature
-    a = s.player
-    RK.blend_layers(a.active, a.effective, a.layer, a.layer_weight.shape[1], s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw,
-                    c.body_rest_pos, c.body_rest_rot, s.lay_pos, s.lay_rot, s.lay_pw, s.lay_rw, s.goal_pos,
-                    s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos, s.root_rot)
+    if s.blend_call is None:
+        c = s.creature
+        a = s.player
+        s.blend_call = BoundKernel(RK.blend_layers, (
+            a.active, a.effective, a.layer, a.layer_weight.shape[1], s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw,
+            c.body_rest_pos, c.body_rest_rot, s.lay_pos, s.lay_rot, s.lay_pw, s.lay_rw, s.goal_pos, s.goal_rot,
+            s.goal_pw, s.goal_rw, s.root_pos, s.root_rot))
+    s.blend_call.call()
 
 
 def _gait_character(char: Character, dt: float) -> None:
@@ -419,9 +440,13 @@ def _solve_character(char: Character) -> None:
     _update_plan(char)
     s, r = char._stack, char._row
     if char.stages.ik:
-        b = char._plan.blobs
-        RK.solve_indexed(b[0], b[1], b[2], b[3], _ROW[r], s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw,
-                         s.goal_rw, s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad)
+        call = char._solve_call
+        if call is None or call.args[0] is not char._plan.blobs[0] or call.args[5] is not s.root_pos:
+            b = char._plan.blobs
+            call = char._solve_call = BoundKernel(RK.solve_indexed, (
+                b[0], b[1], b[2], b[3], _ROW[r], s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw,
+                s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad))
+        call.call()
         if s.ik_bad[r] != -1:
             _raise_ik(char, int(s.ik_bad[r]))
     else:
@@ -442,11 +467,14 @@ def _rest_pose(c: Creature, root_pos, root_rot, out_pos, out_rot, driven) -> Non
 
 
 def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
-    c = s.creature
-    RK.output_and_jiggle(s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot,
-                         c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever,
-                         rig.omega, rig.zeta, rig.max_err, rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target,
-                         s.jig_target_vel, s.jig_active, float(dt), bool(simulate))
+    if s.output_call is None:
+        c = s.creature
+        s.output_call = BoundKernel(RK.output_and_jiggle, (
+            s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot, c.body_parent,
+            c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever, rig.omega, rig.zeta, rig.max_err,
+            rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active, 1.0 / 60.0, True),
+            slots=(21, 22))
+    s.output_call.call(float(dt), bool(simulate))
 
 
 #: Index arrays of one element, made once (row k of a stack), so the per-frame path

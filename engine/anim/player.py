@@ -97,6 +97,15 @@ class PlayerArrays:
             getattr(self, k)[...] = getattr(other, k)
 
 
+def bound_advance(a: PlayerArrays):
+    """The advance kernel bound to ``a`` (see ``engine._fastcall``); call it with ``dt``."""
+    from engine._fastcall import BoundKernel
+
+    return BoundKernel(advance_slots, (0.0, a.active, a.time, a.prev_time, a.speed, a.length, a.loop, a.weight,
+                                       a.fade, a.fade_in_rate, a.fade_out_rate, a.stopping, a.layer, a.layer_weight,
+                                       a.effective, a.flags), slots=(0,))
+
+
 def advance_arrays(a: PlayerArrays, dt: float) -> None:
     """Advance every slot in ``a`` by ``dt`` seconds (one kernel call)."""
     advance_slots(dt, a.active, a.time, a.prev_time, a.speed, a.length, a.loop, a.weight, a.fade,
@@ -118,6 +127,7 @@ class Player:
     version: int = 0
     #: Whether a playing clip has events (after_advance must look at it every frame).
     has_event_clips: bool = False
+    _advance_call: object = None
 
     def __post_init__(self) -> None:
         if self.nslot < 1 or self.nlayer < 1:
@@ -201,7 +211,10 @@ class Player:
     def advance(self, dt: float) -> None:
         """Advance this player alone (a crowd advances all players' arrays in one call,
         then calls ``after_advance`` on each)."""
-        advance_arrays(self.arrays, dt)
+        bound = self._advance_call
+        if bound is None or bound.args[1] is not self.arrays.active:
+            bound = self._advance_call = bound_advance(self.arrays)
+        bound.call(float(dt))
         self.after_advance()
 
     def after_advance(self) -> None:
