@@ -385,7 +385,6 @@ def _fill_external(char: Character, clip: _Clip, table_row: np.ndarray) -> None:
 
 
 def _sample_character(char: Character) -> None:
-    s, r = char._stack, char._row
     for slot, h in enumerate(char.player.handles):
         if h is None:
             continue
