@@ -1,1 +1,18 @@
-"""gait"""
+"""Gaits for any arrangement of legs (Hecker et al. 2008, section 4.2).
+
+``GaitController(creature)`` is the runtime's gait stage (``Character.locomote`` makes
+one): legs clustered into groups of roughly equal length and harmonized by small
+rational frequency ratios (``engine.gait.rig``), authored gait styles interpolated by
+speed with procedural waves for 7+ feet (``engine.gait.style``, files in
+``animations/gaits``), feet planted in world space during stance and carried along the
+style's flight path, hip motion and root motion, floating and inch-worm crawling for
+creatures without feet. The per-frame work is two numba kernels around one call of the
+game's terrain height function (``engine.gait._kernels``).
+"""
+
+from engine.gait.controller import GaitController, GaitError
+from engine.gait.rig import GaitRig, analyze, cluster_lengths, decide_mode, harmonize
+from engine.gait.style import GaitStyle, GaitStyleError, load_style, parse_style_text, style_names
+
+__all__ = ["GaitController", "GaitError", "GaitRig", "GaitStyle", "GaitStyleError", "analyze", "cluster_lengths",
+           "decide_mode", "harmonize", "load_style", "parse_style_text", "style_names"]

@@ -1,0 +1,266 @@
+"""Numba kernels of the gait stage (Hecker et al. 2008, section 4.2). One frame is two
+kernel calls around one call of the game's terrain height function:
+
+1. ``gait_plan``: advance every group's cycle, move steppers between stance and flight
+   (lift-off at the step trigger + duty factor, touchdown when the flight ends, parking
+   when the character stands still, a rescue step when a planted foot would overreach),
+   predict each flying foot's touchdown spot, and list the ground points whose height
+   the frame needs (``query``).
+2. (Python) ``heights = terrain(query)``.
+3. ``gait_pose``: plant landing feet on the ground, move flying feet along the style's
+   normalized flight path scaled to the step, keep everything above the ground, and write
+   every foot's goal in character space through this frame's placement; add the hip bob
+   and sway to the root.
+
+Stepper states: 0 stance (planted: fixed in world space), 1 flight, 2 touching down this
+frame, 3 owned by a playing animation (tracked, not driven).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+STANCE, FLIGHT, LANDING, OWNED = 0, 1, 2, 3
+
+
+@njit(cache=True, inline="always")
+def _path_at(path, g, s):
+    """(forward, up, pitch) of group g's normalized flight path at progress s in [0, 1]."""
+    n = path.shape[1]
+    x = min(max(s, 0.0), 1.0) * (n - 1)
+    i = min(int(x), n - 2)
+    t = x - i
+    return ((1.0 - t) * path[g, i, 0] + t * path[g, i + 1, 0], (1.0 - t) * path[g, i, 1] + t * path[g, i + 1, 1],
+            (1.0 - t) * path[g, i, 2] + t * path[g, i + 1, 2])
+
+
+@njit(cache=True, inline="always")
+def _predict(px, py, yaw, vx, vy, omega, t):
+    """Placement (x, y, yaw) after t seconds at constant world velocity (vx, vy) seen in
+    the turning heading frame: the velocity turns with the heading at rate omega."""
+    if abs(omega) * t < 1e-6:
+        return px + vx * t, py + vy * t, yaw + omega * t
+    a = omega * t
+    s = math.sin(a) / omega
+    c = (1.0 - math.cos(a)) / omega
+    return px + s * vx - c * vy, py + c * vx + s * vy, yaw + a
+
+
+@njit(cache=True)
+def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
+              step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
+              step_progress, step_prev_u, step_parked, foot_body, foot_neutral, foot_world, foot_lift, foot_yaw,
+              foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
+    """Stage 1 of a frame (see the module docstring).
+
+    place (3,)     new placement x, y, heading yaw (world)
+    vel (3,)       world velocity vx, vy (m/s) and turn rate (rad/s) of the placement
+    idle           the character is asked to stand still
+    group_* (G,)   cycle rate (cycles/s), phase (in/out), duty factor, allowed half-sweep (m),
+                   parking tolerance (m); path (G, NS, 3) the normalized flight path
+    step_* (S,)    group, trigger, duty scale, foot range, state/progress/previous cycle
+                   position/parked (in/out)
+    foot_* (F, .)  body, rest spot (character space), world position, lift-off position,
+                   world yaw, lift-off yaw, touchdown target (x, y written here), target yaw
+    goal_pw (nbody,) the blended animation goal weights (a foot with weight > 0 is owned)
+    query (3F + 5, 2) out: ground points to sample (see ``GaitController``)
+    """
+    nfoot = foot_body.shape[0]
+    px, py, yaw = place[0], place[1], place[2]
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    # 1. group cycles
+    for g in range(group_phase.shape[0]):
+        group_phase[g] = (group_phase[g] + group_rate[g] * dt) % 1.0
+    # 2. steppers
+    for s in range(step_group.shape[0]):
+        g = step_group[s]
+        a0 = step_foot_adr[s]
+        a1 = a0 + step_foot_num[s]
+        duty = min(max(group_duty[g] * step_duty_scale[s], 0.05), 0.97)
+        u = (group_phase[g] - step_trigger[s]) % 1.0
+        prev = step_prev_u[s]
+        step_prev_u[s] = u
+        owned = False
+        for f in range(a0, a1):
+            if goal_pw[foot_body[f]] > 0.0:
+                owned = True
+        if owned:
+            step_state[s] = OWNED
+            continue
+        if step_state[s] == OWNED:               # released by the animation: step back into the gait
+            step_state[s] = FLIGHT
+            step_progress[s] = 0.0
+            step_parked[s] = 0
+            for f in range(a0, a1):
+                for j in range(3):
+                    foot_lift[f, j] = foot_world[f, j]
+                foot_lift_yaw[f] = foot_yaw[f]
+        # how far the stepper's feet are from their rest spots under this placement
+        disp = 0.0
+        for f in range(a0, a1):
+            nx = px + cy * foot_neutral[f, 0] - sy * foot_neutral[f, 1]
+            ny = py + sy * foot_neutral[f, 0] + cy * foot_neutral[f, 1]
+            disp = max(disp, math.hypot(foot_world[f, 0] - nx, foot_world[f, 1] - ny))
+        if step_state[s] == STANCE:
+            crossed = (prev < duty <= u) if prev <= u else (duty > prev or duty <= u)
+            lift = False
+            if crossed:
+                if idle and disp <= group_park[g]:
+                    step_parked[s] = 1           # standing still and already home: stay planted
+                else:
+                    lift = True
+            if not lift and disp > group_sweep[g] and not (idle and step_parked[s] == 1):
+                lift = True                      # rescue step: the planted foot would overreach
+            if lift:
+                step_state[s] = FLIGHT
+                step_progress[s] = 0.0
+                step_parked[s] = 0
+                for f in range(a0, a1):
+                    for j in range(3):
+                        foot_lift[f, j] = foot_world[f, j]
+                    foot_lift_yaw[f] = foot_yaw[f]
+        elif step_state[s] == FLIGHT:
+            rate = group_rate[g] / (1.0 - duty) if group_rate[g] > 0.0 else 0.0
+            if rate <= 0.0:
+                rate = 1.0
+            step_progress[s] += rate * dt
+            if step_progress[s] >= 1.0:
+                step_progress[s] = 1.0
+                step_state[s] = LANDING
+        if step_state[s] == FLIGHT or step_state[s] == LANDING:
+            # touchdown target: the rest spot under the placement predicted for the middle
+            # of the coming stance, so the stance sweeps evenly around the rest spot
+            rate = group_rate[g] if group_rate[g] > 0.0 else 1.0
+            t_left = (1.0 - step_progress[s]) * (1.0 - duty) / rate
+            t_ahead = t_left + 0.5 * duty / rate
+            qx, qy, qyaw = _predict(px, py, yaw, vel[0], vel[1], vel[2], t_ahead)
+            if idle:
+                qx, qy, qyaw = px, py, yaw
+            cq, sq = math.cos(qyaw), math.sin(qyaw)
+            fw, up, pitch = _path_at(path, g, step_progress[s])
+            for f in range(a0, a1):
+                foot_target[f, 0] = qx + cq * foot_neutral[f, 0] - sq * foot_neutral[f, 1]
+                foot_target[f, 1] = qy + sq * foot_neutral[f, 0] + cq * foot_neutral[f, 1]
+                foot_target_yaw[f] = qyaw
+                query[f, 0] = foot_target[f, 0]
+                query[f, 1] = foot_target[f, 1]
+                query[nfoot + f, 0] = foot_lift[f, 0] + fw * (foot_target[f, 0] - foot_lift[f, 0])
+                query[nfoot + f, 1] = foot_lift[f, 1] + fw * (foot_target[f, 1] - foot_lift[f, 1])
+        else:
+            for f in range(a0, a1):
+                query[f, 0] = foot_world[f, 0]
+                query[f, 1] = foot_world[f, 1]
+                query[nfoot + f, 0] = foot_world[f, 0]
+                query[nfoot + f, 1] = foot_world[f, 1]
+    # 3. rest spots under the placement (ground height and slope under the body)
+    for f in range(nfoot):
+        query[2 * nfoot + f, 0] = px + cy * foot_neutral[f, 0] - sy * foot_neutral[f, 1]
+        query[2 * nfoot + f, 1] = py + sy * foot_neutral[f, 0] + cy * foot_neutral[f, 1]
+
+
+@njit(cache=True, inline="always")
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+@njit(cache=True)
+def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, step_group, step_side,
+              step_lift_scale, step_foot_adr, step_foot_num, step_state, step_progress, foot_body, foot_offset,
+              foot_rest_rot, foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw,
+              foot_tilt, root_dq, root_dpos, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+    """Stage 2 of a frame (see the module docstring).
+
+    place_pos (3,), yaw        this frame's placement (world)
+    heights (3F + 5,)          ground height at the query points of ``gait_plan``
+    group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
+    foot_tilt (4,)             slope rotation of planted feet, character space
+    root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
+    root_pos, root_rot, goal_* in/out (character space)
+    """
+    nfoot = foot_body.shape[0]
+    ngroup = group_lift.shape[0]
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    bob = 0.0
+    sway = 0.0
+    for s in range(step_group.shape[0]):
+        g = step_group[s]
+        a0 = step_foot_adr[s]
+        a1 = a0 + step_foot_num[s]
+        st = step_state[s]
+        if st == OWNED:
+            # follow the animation's goal in world space so the gait can take over smoothly
+            for f in range(a0, a1):
+                b = foot_body[f]
+                gx, gy, gz = goal_pos[b, 0], goal_pos[b, 1], goal_pos[b, 2]
+                foot_world[f, 0] = place_pos[0] + cy * gx - sy * gy
+                foot_world[f, 1] = place_pos[1] + sy * gx + cy * gy
+                foot_world[f, 2] = place_pos[2] + gz
+                foot_yaw[f] = yaw
+            continue
+        if st == LANDING:
+            for f in range(a0, a1):
+                foot_world[f, 0] = foot_target[f, 0]
+                foot_world[f, 1] = foot_target[f, 1]
+                foot_world[f, 2] = heights[f] + foot_offset[f]
+                foot_yaw[f] = foot_target_yaw[f]
+            step_state[s] = STANCE
+        elif st == FLIGHT:
+            p = step_progress[s]
+            fw, up, pitch = _path_at(path, g, p)
+            lift = group_lift[g] * step_lift_scale[s]
+            bump = math.sin(math.pi * p)
+            bob += group_bob[g] * bump
+            sway -= group_sway[g] * step_side[s] * bump
+            for f in range(a0, a1):
+                tz = heights[f] + foot_offset[f]
+                x = foot_lift[f, 0] + fw * (foot_target[f, 0] - foot_lift[f, 0])
+                y = foot_lift[f, 1] + fw * (foot_target[f, 1] - foot_lift[f, 1])
+                z = foot_lift[f, 2] + fw * (tz - foot_lift[f, 2]) + lift * up
+                # never below the ground under the foot (clear it by a share of the lift)
+                floor = heights[nfoot + f] + foot_offset[f] + 0.25 * lift * up
+                foot_world[f, 0] = x
+                foot_world[f, 1] = y
+                foot_world[f, 2] = max(z, floor)
+                foot_yaw[f] = foot_lift_yaw[f] + fw * (foot_target_yaw[f] - foot_lift_yaw[f])
+    # root: crouch, slope and lean rotation, bob and sway
+    n_per = max(step_group.shape[0], 1) / max(ngroup, 1)
+    root_pos[0] += root_dpos[0]
+    root_pos[1] += root_dpos[1] + sway / max(n_per * 0.5, 1.0)
+    root_pos[2] += root_dpos[2] + bob / max(n_per * 0.5, 1.0)
+    q = _qmul(root_dq[0], root_dq[1], root_dq[2], root_dq[3], root_rot[0], root_rot[1], root_rot[2], root_rot[3])
+    for j in range(4):
+        root_rot[j] = q[j]
+    # goals in character space through this frame's placement
+    for s in range(step_group.shape[0]):
+        if step_state[s] == OWNED:
+            continue
+        g = step_group[s]
+        a0 = step_foot_adr[s]
+        a1 = a0 + step_foot_num[s]
+        pitch = 0.0
+        if step_state[s] == FLIGHT:
+            fw, up, pitch = _path_at(path, g, step_progress[s])
+            pitch *= step_lift_scale[s]
+        hp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+        for f in range(a0, a1):
+            b = foot_body[f]
+            dx = foot_world[f, 0] - place_pos[0]
+            dy = foot_world[f, 1] - place_pos[1]
+            goal_pos[b, 0] = cy * dx + sy * dy
+            goal_pos[b, 1] = -sy * dx + cy * dy
+            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2]
+            goal_pw[b] = 1.0
+            # rotation: yaw relative to the heading, the slope tilt, the flight pitch (toe up
+            # about the character's left axis), then the rest rotation
+            h = 0.5 * (foot_yaw[f] - yaw)
+            q = _qmul(math.cos(h), 0.0, 0.0, math.sin(h), foot_tilt[0], foot_tilt[1], foot_tilt[2], foot_tilt[3])
+            q = _qmul(q[0], q[1], q[2], q[3], hp, 0.0, -sp, 0.0)
+            q = _qmul(q[0], q[1], q[2], q[3], foot_rest_rot[f, 0], foot_rest_rot[f, 1], foot_rest_rot[f, 2],
+                      foot_rest_rot[f, 3])
+            for j in range(4):
+                goal_rot[b, j] = q[j]
+            goal_rw[b] = 1.0

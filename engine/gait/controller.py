@@ -1,0 +1,489 @@
+"""GaitController: the runtime's gait stage for one character (Hecker et al. 2008,
+section 4.2).
+
+Per frame (``step``), called by ``Character.tick`` after the animation blend and before
+the IK:
+
+1. root motion: the commanded velocity and turn rate, limited to what the style allows
+   (no overreach) and reached with the style's acceleration limits (continuity), are
+   integrated into the character's placement;
+2. cadence: each leg group's cycle rate follows its style's stride at the group's
+   relative speed, raised where the stride would make a planted foot overreach
+   (``rig.group_sweep``), locked across groups by the harmonized ratios;
+3. ``gait_plan`` kernel: stance/flight transitions and touchdown predictions;
+4. one call of the terrain height function for all the points the frame needs;
+5. placement height and torso slope from the ground under the rest feet;
+6. ``gait_pose`` kernel: feet planted, in flight, goals through the new placement, hip
+   bob, sway, crouch, lean and slope alignment on the root.
+
+Slope alignment, lean and crouch are low-pass filtered so a sudden command or a ridge in
+the terrain never snaps the torso.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from engine.errors import MenagerieError
+from engine.gait import _kernels as K
+from engine.gait.rig import MAX_CROUCH, NCROUCH, GaitRig, analyze
+from engine.gait.style import PATH_SAMPLES, GaitStyle, GaitStyleError, load_style
+from engine.model.creature import Creature
+
+#: Time constants (s) of the filters on the placement height and the torso tilt.
+HEIGHT_TAU = 0.12
+TILT_TAU = 0.25
+#: Below these the character counts as standing still (share of leg length per second, rad/s).
+IDLE_SPEED = 1e-3
+IDLE_TURN = 1e-3
+
+
+class GaitError(MenagerieError, ValueError):
+    """Bad input to the gait controller (a terrain function, a style, a group index)."""
+
+
+class GaitController:
+    """Locomotion for one character (see the module docstring).
+
+    Public state: ``rig`` (the static analysis: ``rig.mode`` is 'walk', 'crawl' or
+    'float'), ``version`` and ``goal_bodies`` (the bodies the gait drives),
+    ``velocity`` (2,) and ``turn_rate`` (the filtered motion, character frame),
+    ``speed_limit`` (m/s the styles allow now), ``group_phase`` (cycle of each group),
+    ``step_state`` (0 stance, 1 flight, 3 owned by an animation per stepper).
+    """
+
+    def __init__(self, creature: Creature, style: str | GaitStyle = "walk") -> None:
+        if not isinstance(creature, Creature):
+            raise TypeError(f"GaitController needs a Creature, got {type(creature).__name__}")
+        self.creature = creature
+        self.rig: GaitRig = analyze(creature)
+        r = self.rig
+        F, S, G = r.nfoot, r.nstep, max(r.ngroup, 1)
+        self.version = 1
+        self.goal_bodies = np.array(sorted(set(int(b) for b in r.foot_body)), np.int32)
+        # command and filtered motion (character frame)
+        self._cmd_v = np.zeros(2)
+        self._cmd_w = 0.0
+        self.velocity = np.zeros(2)
+        self.turn_rate = 0.0
+        self.speed_limit = math.inf
+        self._yaw = None                     # unwrapped heading we integrate
+        self._last_place = np.zeros(3)
+        self._time = 0.0
+        # terrain
+        self._height = None
+        self._normal = None
+        self._vectorised = True
+        # styles: per group a list of (style, weight) layers
+        base = _as_style(style)
+        self._layers: list[list[tuple[GaitStyle, float]]] = [[(base, 1.0)] for _ in range(G)]
+        # per-frame arrays (kernel inputs), preallocated
+        self.group_phase = np.zeros(G)
+        self.group_rate = np.zeros(G)
+        self.group_duty = np.full(G, 0.6)
+        self.group_sweep = np.zeros(G)
+        self.group_park = np.zeros(G)
+        self.group_lift = np.zeros(G)
+        self.group_bob = np.zeros(G)
+        self.group_sway = np.zeros(G)
+        self.path = np.zeros((G, PATH_SAMPLES, 3))
+        self.step_trigger = np.zeros(S)
+        self.step_duty_scale = np.ones(S)
+        self.step_lift_scale = np.ones(S)
+        self.step_state = np.zeros(S, np.int32)
+        self.step_progress = np.zeros(S)
+        self.step_prev_u = np.zeros(S)
+        self.step_parked = np.ones(S, np.int32)
+        self.foot_world = np.zeros((F, 3))
+        self.foot_lift = np.zeros((F, 3))
+        self.foot_yaw = np.zeros(F)
+        self.foot_lift_yaw = np.zeros(F)
+        self.foot_target = np.zeros((F, 3))
+        self.foot_target_yaw = np.zeros(F)
+        self._query = np.zeros((3 * F + 5, 2))
+        self._heights = np.zeros(3 * F + 5)
+        self._place3 = np.zeros(3)
+        self._vel3 = np.zeros(3)
+        self._foot_tilt = np.array([1.0, 0.0, 0.0, 0.0])
+        self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
+        self._root_dpos = np.zeros(3)
+        self._row = np.zeros(8)
+        self._tilt = np.zeros(2)             # filtered slope (dz/dx, dz/dy) in the character frame
+        self._crouch = 0.0
+        self._lean = np.zeros(2)
+        self._prev_v = np.zeros(2)
+        self._started = False
+        self._rebuild_patterns()
+
+    # -- control -------------------------------------------------------------------------
+
+    def command(self, velocity, turn_rate: float) -> None:
+        """Desired velocity (forward, left) m/s in the heading frame and turn rate rad/s."""
+        v = np.asarray(velocity, dtype=float)
+        if v.shape != (2,) or not np.all(np.isfinite(v)) or not math.isfinite(float(turn_rate)):
+            raise GaitError(f"command: velocity must be 2 finite numbers and turn_rate finite, got {velocity!r}, "
+                            f"{turn_rate!r}")
+        self._cmd_v[:] = v
+        self._cmd_w = float(turn_rate)
+
+    def set_terrain(self, height, normal=None) -> None:
+        """``height(x, y) -> z`` (world; arrays in, arrays out is fastest) and optionally
+        ``normal(x, y) -> (3,)``; None is the flat plane z = 0."""
+        if height is not None and not callable(height):
+            raise GaitError(f"set_terrain: height must be a function height(x, y) -> z or None, got "
+                            f"{type(height).__name__}")
+        if normal is not None and not callable(normal):
+            raise GaitError(f"set_terrain: normal must be a function normal(x, y) -> (3,) or None, got "
+                            f"{type(normal).__name__}")
+        self._height = height
+        self._normal = normal
+        self._vectorised = True
+        if height is not None:
+            try:
+                z = np.asarray(height(np.zeros(2), np.zeros(2)), dtype=float)
+                self._vectorised = z.shape == (2,)
+            except Exception:                                  # noqa: BLE001 - scalar-only functions
+                self._vectorised = False
+            z0 = self._sample_scalar(0.0, 0.0)
+            if not math.isfinite(z0):
+                raise GaitError(f"set_terrain: height(0, 0) returned {z0!r}, not a finite number")
+        self._started = False                                  # replant on the new ground
+
+    def set_style(self, style, group: int | None = None, weight: float = 1.0, *, layer: bool = False) -> None:
+        """Use ``style`` (a name such as 'trot', a path, or a GaitStyle) for leg group
+        ``group`` (None: every group). ``layer=True`` puts it on top of the current styles
+        with ``weight`` (numbers blend linearly, step triggers along the shorter way round
+        the cycle), e.g. a limp over a walk; otherwise it replaces them."""
+        st = _as_style(style)
+        if not (isinstance(weight, (int, float)) and math.isfinite(weight) and 0.0 <= weight <= 1.0):
+            raise GaitError(f"set_style: weight must be in [0, 1], got {weight!r}")
+        ng = len(self._layers)
+        if group is not None and not (isinstance(group, (int, np.integer)) and 0 <= group < max(self.rig.ngroup, 1)):
+            raise GaitError(f"set_style: creature '{self.creature.name}' has {self.rig.ngroup} leg group(s), "
+                            f"got group {group!r}")
+        groups = range(ng) if group is None else [int(group)]
+        for g in groups:
+            if layer:
+                self._layers[g] = [(s, w) for s, w in self._layers[g] if s is not st] + [(st, float(weight))]
+            else:
+                self._layers[g] = [(st, 1.0)]
+        self._rebuild_patterns()
+
+    def styles(self, group: int = 0) -> list[tuple[str, float]]:
+        """(style name, weight) layers of a group, bottom first."""
+        return [(s.name, w) for s, w in self._layers[group]]
+
+    # -- static per-style arrays ----------------------------------------------------------
+
+    def _rebuild_patterns(self) -> None:
+        r = self.rig
+        for g in range(len(self._layers)):
+            layers = self._layers[g]
+            path = layers[0][0].path.copy()
+            for st, w in layers[1:]:
+                path += w * (st.path - path)
+            self.path[g] = path
+            if r.nstep == 0:
+                continue
+            steps = r.group_steppers(g)
+            npair = int(math.ceil(len(steps) / 2))
+            side = r.step_side[steps]
+            rank = r.step_rank[steps]
+            row = rank if len(steps) <= 6 else rank // 2 if np.all(side != 0) else rank
+            trig, dsc, lsc = layers[0][0].stepper_pattern(side, row, npair)
+            for st, w in layers[1:]:
+                t2, d2, l2 = st.stepper_pattern(side, row, npair)
+                diff = (t2 - trig + 0.5) % 1.0 - 0.5
+                trig = (trig + w * diff) % 1.0
+                dsc = dsc + w * (d2 - dsc)
+                lsc = lsc + w * (l2 - lsc)
+            if r.mode == "crawl":
+                # inch-worm: a wave from the front to the back along the body
+                n = len(steps)
+                trig = (0.55 * rank / max(n - 1, 1)) % 1.0
+            self.step_trigger[steps] = trig
+            self.step_duty_scale[steps] = dsc
+            self.step_lift_scale[steps] = lsc
+
+    def _params(self, g: int, rel_speed: float) -> np.ndarray:
+        """The blended speed-entry row of group g at ``rel_speed`` (into a reused buffer)."""
+        row = self._row
+        layers = self._layers[g]
+        _interp_into(layers[0][0].table, rel_speed, row)
+        for st, w in layers[1:]:
+            t = st.table
+            # blend each column toward the layer's value
+            k = _bracket(t[:, 0], rel_speed)
+            for j in range(1, 8):
+                v = _lerp_col(t, k, rel_speed, j)
+                row[j] += w * (v - row[j])
+        return row
+
+    def _style_scalar(self, g: int, name: str) -> float:
+        layers = self._layers[g]
+        v = getattr(layers[0][0], name)
+        for st, w in layers[1:]:
+            v += w * (getattr(st, name) - v)
+        return v
+
+    # -- terrain ---------------------------------------------------------------------------
+
+    def _sample_scalar(self, x: float, y: float) -> float:
+        if self._height is None:
+            return 0.0
+        return float(np.asarray(self._height(x, y), dtype=float).reshape(()))
+
+    def _sample(self, q: np.ndarray, out: np.ndarray) -> None:
+        if self._height is None:
+            out[:] = 0.0
+            return
+        if self._vectorised:
+            z = np.asarray(self._height(q[:, 0], q[:, 1]), dtype=float)
+            if z.shape != out.shape:
+                raise GaitError(f"terrain height returned shape {z.shape} for {out.shape[0]} points")
+            out[:] = z
+        else:
+            for i in range(q.shape[0]):
+                out[i] = self._sample_scalar(q[i, 0], q[i, 1])
+        if not np.all(np.isfinite(out)):
+            i = int(np.flatnonzero(~np.isfinite(out))[0])
+            raise GaitError(f"terrain height({q[i, 0]:.3f}, {q[i, 1]:.3f}) is {out[i]!r}, not finite")
+
+    # -- one frame -------------------------------------------------------------------------
+
+    def _start(self, place_pos, yaw) -> None:
+        """Plant every foot at its rest spot under the current placement."""
+        r = self.rig
+        self._yaw = yaw
+        c, s = math.cos(yaw), math.sin(yaw)
+        F = r.nfoot
+        for f in range(F):
+            n = r.foot_neutral[f]
+            self.foot_world[f, 0] = place_pos[0] + c * n[0] - s * n[1]
+            self.foot_world[f, 1] = place_pos[1] + s * n[0] + c * n[1]
+        if F:
+            self._sample(self.foot_world[:, :2].copy(), self._heights[:F])
+            self.foot_world[:, 2] = self._heights[:F] + r.foot_offset
+        self.foot_yaw[:] = yaw
+        self.step_state[:] = K.STANCE
+        self.step_parked[:] = 1
+        self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
+        self._tilt[:] = 0.0
+        self._crouch = 0.0
+        self._lean[:] = 0.0
+        self._last_place[:] = place_pos
+        self._started = True
+
+    def step(self, dt, place_pos, place_rot, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw) -> None:
+        """Advance the gait by ``dt`` seconds, writing into the given views (see the
+        runtime's contract in the module docstring of ``engine.gait``)."""
+        r = self.rig
+        yaw_now = 2.0 * math.atan2(float(place_rot[3]), float(place_rot[0]))
+        if (not self._started or self._yaw is None
+                or math.hypot(place_pos[0] - self._last_place[0], place_pos[1] - self._last_place[1])
+                > 0.5 * max(float(np.max(r.group_length)) if r.ngroup else 0.5, 0.05)
+                or abs(math.remainder(yaw_now - self._yaw, 2 * math.pi)) > 1e-6):
+            # first frame, or the game moved the character itself: plant afresh
+            self._start(place_pos, yaw_now)
+        self._time += dt
+        G = len(self._layers)
+        L = float(np.max(r.group_length)) if r.ngroup else max(float(self.creature.size[2]), 0.1)
+
+        # 1. speed limit (no overreach) and acceleration-limited root motion
+        limit = math.inf
+        for g in range(r.ngroup):
+            Lg = r.group_length[g]
+            cap = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3)) * r.group_ratio[g]
+            top = self._layers[g][0][0].table[-1, 0]
+            p = self._params(g, top)
+            crouch = max(p[7], r.group_min_crouch[g]) * Lg
+            sweep = _interp_sweep(r.group_sweep[g], crouch / max(Lg, 1e-9))
+            stride_max = 1.6 * sweep / max(p[2], 0.05)
+            limit = min(limit, cap * min(p[1] * Lg, stride_max), top * Lg * 1.25)
+        self.speed_limit = limit
+        cmd = self._cmd_v
+        cmd_speed = math.hypot(cmd[0], cmd[1])
+        w_cmd = self._cmd_w
+        radius = float(np.max(r.group_radius)) if r.ngroup else 0.0
+        if cmd_speed + abs(w_cmd) * radius > limit and cmd_speed + abs(w_cmd) * radius > 0:
+            k = limit / (cmd_speed + abs(w_cmd) * radius)
+            tx, ty, tw = cmd[0] * k, cmd[1] * k, w_cmd * k
+        else:
+            tx, ty, tw = cmd[0], cmd[1], w_cmd
+        acc = self._style_scalar(0, "accel") * L
+        tacc = self._style_scalar(0, "turn_accel")
+        dvx, dvy = tx - self.velocity[0], ty - self.velocity[1]
+        dv = math.hypot(dvx, dvy)
+        if dv > acc * dt:
+            dvx, dvy = dvx * acc * dt / dv, dvy * acc * dt / dv
+        self._prev_v[:] = self.velocity
+        self.velocity[0] += dvx
+        self.velocity[1] += dvy
+        dw = tw - self.turn_rate
+        self.turn_rate += max(-tacc * dt, min(tacc * dt, dw))
+        # integrate the placement: heading, then position in the mid-step heading
+        yaw0 = self._yaw
+        self._yaw = yaw0 + self.turn_rate * dt
+        ym = 0.5 * (yaw0 + self._yaw)
+        cm, sm = math.cos(ym), math.sin(ym)
+        vx = cm * self.velocity[0] - sm * self.velocity[1]
+        vy = sm * self.velocity[0] + cm * self.velocity[1]
+        place_pos[0] += vx * dt
+        place_pos[1] += vy * dt
+        h = 0.5 * self._yaw
+        place_rot[0], place_rot[1], place_rot[2], place_rot[3] = math.cos(h), 0.0, 0.0, math.sin(h)
+        speed = math.hypot(self.velocity[0], self.velocity[1])
+        idle = (cmd_speed < IDLE_SPEED * L and abs(w_cmd) < IDLE_TURN
+                and speed < IDLE_SPEED * L and abs(self.turn_rate) < IDLE_TURN)
+
+        # 2. cadence per group, locked by the harmonized ratios
+        base = 0.0
+        for g in range(r.ngroup):
+            Lg = r.group_length[g]
+            v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
+            p = self._params(g, v_eff / Lg)
+            crouch = max(p[7], r.group_min_crouch[g]) * Lg
+            sweep = _interp_sweep(r.group_sweep[g], crouch / max(Lg, 1e-9))
+            duty = p[2]
+            stride = min(p[1] * Lg, 1.6 * sweep / duty) if sweep > 0 else p[1] * Lg
+            f_g = v_eff / max(stride, 1e-6)
+            settle = 0.5 * self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
+            if not idle:
+                f_g = max(f_g, 0.35 * settle)
+            elif np.any(self.step_parked[r.step_group == g] == 0):
+                f_g = settle
+            base = max(base, f_g / r.group_ratio[g])
+            self.group_duty[g] = duty
+            self.group_sweep[g] = 0.97 * sweep + 0.0
+            self.group_park[g] = 0.03 * Lg
+            self.group_lift[g] = p[3] * Lg
+            gain = min(v_eff / Lg, 1.0)
+            self.group_bob[g] = p[4] * Lg * gain
+            self.group_sway[g] = p[5] * Lg * gain
+        for g in range(r.ngroup):
+            self.group_rate[g] = base * r.group_ratio[g]
+
+        # 3. stance/flight transitions and touchdown predictions
+        self._place3[0], self._place3[1], self._place3[2] = place_pos[0], place_pos[1], self._yaw
+        self._vel3[0], self._vel3[1], self._vel3[2] = vx, vy, self.turn_rate
+        F = r.nfoot
+        q = self._query
+        if r.nstep:
+            K.gait_plan(dt, self._place3, self._vel3, idle, self.group_rate, self.group_phase, self.group_duty,
+                        self.group_sweep, self.group_park, self.path, r.step_group, self.step_trigger,
+                        self.step_duty_scale, r.step_foot_adr, r.step_foot_num, self.step_state,
+                        self.step_progress, self.step_prev_u, self.step_parked, r.foot_body, r.foot_neutral,
+                        self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
+                        self.foot_target_yaw, goal_pw, q)
+        # ground under the centre and four points around it (slope at the body's scale)
+        e = max(0.5 * float(max(self.creature.size[0], self.creature.size[1])), 0.05)
+        cy, sy = math.cos(self._yaw), math.sin(self._yaw)
+        q[3 * F, 0], q[3 * F, 1] = place_pos[0], place_pos[1]
+        q[3 * F + 1, 0], q[3 * F + 1, 1] = place_pos[0] + e * cy, place_pos[1] + e * sy
+        q[3 * F + 2, 0], q[3 * F + 2, 1] = place_pos[0] - e * cy, place_pos[1] - e * sy
+        q[3 * F + 3, 0], q[3 * F + 3, 1] = place_pos[0] - e * sy, place_pos[1] + e * cy
+        q[3 * F + 4, 0], q[3 * F + 4, 1] = place_pos[0] + e * sy, place_pos[1] - e * cy
+
+        # 4. the ground
+        hts = self._heights
+        self._sample(q, hts)
+
+        # 5. placement height and torso slope
+        ground = float(np.mean(hts[2 * F:3 * F])) if F else float(hts[3 * F])
+        a_h = 1.0 - math.exp(-dt / HEIGHT_TAU)
+        place_pos[2] += a_h * (ground - place_pos[2])
+        if self._normal is not None:
+            n = np.asarray(self._normal(place_pos[0], place_pos[1]), dtype=float).reshape(3)
+            nz = max(float(n[2]), 1e-3)
+            gx, gy = -float(n[0]) / nz, -float(n[1]) / nz          # world slope dz/dx, dz/dy
+            sx, sl = cy * gx + sy * gy, -sy * gx + cy * gy          # ... in the character frame
+        else:
+            sx = (hts[3 * F + 1] - hts[3 * F + 2]) / (2 * e)
+            sl = (hts[3 * F + 3] - hts[3 * F + 4]) / (2 * e)
+        a_t = 1.0 - math.exp(-dt / TILT_TAU)
+        self._tilt[0] += a_t * (sx - self._tilt[0])
+        self._tilt[1] += a_t * (sl - self._tilt[1])
+        # lean: pitch into acceleration, roll into the turn (centripetal acceleration)
+        p0 = self._params(0, speed / L) if r.ngroup else self._row
+        lean_k = float(p0[6]) if r.ngroup else 0.0
+        ax = (self.velocity[0] - self._prev_v[0]) / dt
+        ay = speed * self.turn_rate
+        self._lean[0] += a_t * (lean_k * ax / L - self._lean[0])
+        self._lean[1] += a_t * (-lean_k * ay / L - self._lean[1])   # lean into the turn
+        align = self._style_scalar(0, "slope_align")
+        pitch = -align * math.atan(self._tilt[0]) + self._lean[0]      # nose up on an uphill (-pitch about +y)
+        roll = align * math.atan(self._tilt[1]) + self._lean[1]
+        _pitch_roll_into(pitch, roll, self._root_dq)
+        _pitch_roll_into(-math.atan(self._tilt[0]), math.atan(self._tilt[1]), self._foot_tilt)
+        # crouch: the style's, low-pass filtered
+        want = 0.0
+        for g in range(r.ngroup):
+            v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
+            share = max(self._params(g, v_eff / r.group_length[g])[7], r.group_min_crouch[g])
+            want = max(want, share * r.group_length[g])
+        self._crouch += a_t * (want - self._crouch)
+        self._root_dpos[2] = -self._crouch
+        if r.mode == "float":
+            # hover with a gentle bob at the rest height over the ground
+            self._root_dpos[2] = 0.03 * r.float_height * (1.0 - math.cos(2.0 * math.pi * 0.4 * self._time))
+
+        # 6. feet and root
+        K.gait_pose(place_pos, self._yaw, hts, self.path, self.group_lift, self.group_bob, self.group_sway,
+                    r.step_group, r.step_side, self.step_lift_scale, r.step_foot_adr, r.step_foot_num,
+                    self.step_state, self.step_progress, r.foot_body, r.foot_offset, r.foot_rest_rot,
+                    self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
+                    self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, root_pos, root_rot,
+                    goal_pos, goal_rot, goal_pw, goal_rw)
+        self._last_place[:] = place_pos
+
+
+def _as_style(style) -> GaitStyle:
+    if isinstance(style, GaitStyle):
+        return style
+    if isinstance(style, str):
+        try:
+            return load_style(style)
+        except GaitStyleError:
+            raise
+    raise GaitError(f"a gait style is a name, a path or a GaitStyle, got {type(style).__name__}")
+
+
+def _bracket(speeds: np.ndarray, x: float) -> int:
+    n = speeds.shape[0]
+    k = 0
+    while k + 1 < n and speeds[k + 1] <= x:
+        k += 1
+    return k
+
+
+def _lerp_col(t: np.ndarray, k: int, x: float, j: int) -> float:
+    n = t.shape[0]
+    if k + 1 >= n or x <= t[0, 0]:
+        return float(t[k if x > t[0, 0] else 0, j])
+    a = (x - t[k, 0]) / (t[k + 1, 0] - t[k, 0])
+    return float(t[k, j] + a * (t[k + 1, j] - t[k, j]))
+
+
+def _interp_into(t: np.ndarray, x: float, out: np.ndarray) -> None:
+    k = _bracket(t[:, 0], x)
+    for j in range(8):
+        out[j] = _lerp_col(t, k, x, j)
+
+
+def _interp_sweep(table: np.ndarray, crouch_share: float) -> float:
+    x = min(max(crouch_share / MAX_CROUCH, 0.0), 1.0) * (NCROUCH - 1)
+    i = min(int(x), NCROUCH - 2)
+    a = x - i
+    return float(table[i] * (1 - a) + table[i + 1] * a)
+
+
+def _pitch_roll_into(pitch: float, roll: float, out: np.ndarray) -> None:
+    """Quaternion of a rotation by ``pitch`` about +y after ``roll`` about +x."""
+    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    out[0] = cp * cr
+    out[1] = cp * sr
+    out[2] = sp * cr
+    out[3] = -sp * sr
