@@ -212,7 +212,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             p = step_progress[s]
             fw, up, pitch = _path_at(path, g, p)
             lift = group_lift[g] * step_lift_scale[s]
-            bump = math.sin(math.pi * p)
+            bump = math.sin(math.pi * p) ** 2         # zero slope at lift-off and touchdown: no velocity jump
             bob += group_bob[g] * bump
             sway -= group_sway[g] * step_side[s] * bump
             for f in range(a0, a1):

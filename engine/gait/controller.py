@@ -271,7 +271,9 @@ class GaitController:
         self.step_parked[:] = 1
         self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
         self._tilt[:] = 0.0
-        self._crouch = 0.0
+        # start crouched as the style wants at rest (straight legs must bend to step)
+        self._crouch = max((max(self._params(g, 0.0)[7], r.group_min_crouch[g]) * r.group_length[g]
+                            for g in range(r.ngroup)), default=0.0)
         self._lean[:] = 0.0
         self._last_place[:] = place_pos
         self._started = True

@@ -51,7 +51,7 @@ GROUP_TOLERANCE = 1.3
 #: Denominators (and numerators) of the harmonized ratios stay at or below this.
 MAX_RATIO_TERM = 4
 #: Share of the chain length a leg may extend to (the IK meets such goals exactly).
-REACH_SHARE = 0.95
+REACH_SHARE = 0.9
 NCROUCH = 21
 MAX_CROUCH = 0.4
 #: Half-sweep (leg lengths) a group must be able to make; straight legs crouch for it.
