@@ -11,16 +11,21 @@ Figures are printed (``pytest -s``) so the report can quote them.
 
 from __future__ import annotations
 
+import glob
 import math
+import os
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+import engine
 from engine.model import creature_from_text
 from engine.physics import (
     BodySpec, ContactSettings, CreatureBodyOptions, PhysicsError, PhysicsState, Terrain, WorldSettings,
-    build_model, energy, joint_separation, model_from_creatures, shape_mass_inertia, state_from_kinematic,
-    step,
+    build_model, energy, joint_separation, model_from_creatures, servo_targets_from_pose, shape_mass_inertia,
+    state_from_kinematic, step,
 )
 from engine.physics.model import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
 
@@ -134,6 +139,7 @@ INVALID_SPECS = [
     ([_sphere("a"), _sphere("b", parent=0)], "needs a joint point", "joint"),
     ([_sphere("a"), _sphere("b", parent=0, joint=np.zeros(3), character=1)], "crosses characters", "parent"),
     ([], "at least one body", "bodies"),
+    ([_sphere("a"), _sphere("b", parent=0, joint=np.zeros(3), servo_hz=-1.0)], "servo_hz must be >= 0", "servo_hz"),
 ]
 
 
@@ -530,3 +536,112 @@ def test_determinism_bit_for_bit():
     step(a.model, a, DT, steps=10)
     step(c.model, c, DT, steps=10)
     assert a.digest() == c.digest()
+
+
+# ---------------------------------------------------------------------------------------
+# Any creature: the library, random creatures, any size
+# ---------------------------------------------------------------------------------------
+
+LIBRARY = sorted(glob.glob(os.path.join(os.path.dirname(os.path.dirname(__file__)), "creatures", "*.yaml")))
+
+
+def _drop_check(creature, seconds):
+    model = model_from_creatures(creature)
+    state = PhysicsState(model)
+    state.body_pos[:, 2] += 0.2 * creature.height
+    worst = 0.0
+    for _ in range(int(seconds / (50 * DT))):
+        step(model, state, DT, steps=50)
+        worst = max(worst, float(joint_separation(model, state).max()))
+    ratio = model.body_mass.max() / model.body_mass.min()
+    # no body centre below the ground by more than its own half-thickness
+    depth = float(np.max(-(state.body_pos[:, 2]) - model.body_size[:, 0]))
+    return worst, ratio, depth
+
+
+@pytest.mark.skipif(not LIBRARY, reason="creature library not present")
+def test_every_library_creature_falls_as_a_ragdoll():
+    rows = []
+    for path in LIBRARY:
+        c = engine.load_creature(path)
+        sep, ratio, depth = _drop_check(c, 0.5)
+        rows.append((c.name, c.nbody, ratio, sep))
+        assert sep < 1e-3, (c.name, sep)
+        assert depth < 0.0, (c.name, depth)
+    worst = max(rows, key=lambda r: r[3])
+    print(f"\n{len(rows)} library creatures dropped for 0.5 s: worst joint separation {worst[3] * 1000:.4f} mm "
+          f"({worst[0]}), largest mass ratio {max(r[2] for r in rows):.0f}:1")
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=10_000))
+def test_random_creatures_fall_as_ragdolls(seed):
+    from engine.model import build_creature
+    from engine.model.random import random_creature_def
+
+    c = build_creature(random_creature_def(seed))
+    sep, _, depth = _drop_check(c, 0.25)
+    assert sep < 1e-3 and depth < 0.0
+
+
+def _scaled_humanoid(k):
+    from engine.model import BodyDef, CreatureDef, build_creature
+
+    c = engine.load_creature(LIBRARY[[os.path.basename(p) for p in LIBRARY].index("humanoid.yaml")])
+    d = c.to_def()
+    bodies = [BodyDef(name=b.name, parent=b.parent, caps=b.caps, pos=tuple(k * v for v in b.pos), rot=b.rot,
+                      joint=None if b.joint is None else tuple(k * v for v in b.joint),
+                      extents=tuple(k * v for v in b.extents)) for b in d.bodies]
+    return build_creature(CreatureDef(name=f"humanoid_x{k}", bodies=bodies))
+
+
+@pytest.mark.skipif("humanoid.yaml" not in [os.path.basename(p) for p in LIBRARY], reason="no humanoid")
+def test_one_servo_setting_from_mouse_to_giant():
+    """The same servo gains (6 Hz, damping 0.7) hold a 9 cm and a 9 m humanoid alike: the
+    joint-angle error after a kick of 2 rad/s is the same curve at every size (pelvis
+    pinned, in the air, no gravity: gravity itself is not scale-free)."""
+    curves = {}
+    for k in (0.05, 1.0, 5.0):
+        c = _scaled_humanoid(k)
+        model = model_from_creatures(c, options=CreatureBodyOptions(servo_hz=6.0, servo_zeta=0.7,
+                                                                    fixed=(c.body_names[0],)),
+                                     settings=WorldSettings(gravity=(0.0, 0.0, 0.0)), terrain=Terrain.flat(-1e6))
+        state = PhysicsState(model)
+        state.joint_target_rot[:] = servo_targets_from_pose(model, model.body_rest_rot)
+        state.body_angvel[1:] = [0.0, 2.0, 0.0]
+        errors = []
+        for _ in range(10):
+            step(model, state, DT, steps=100)
+            rel = servo_targets_from_pose(model, state.body_rot)
+            dots = np.abs(np.sum(rel * model.joint_rest_rot, axis=1))
+            errors.append(2 * np.degrees(np.arccos(np.clip(dots, -1, 1))).max())
+        curves[k] = np.array(errors)
+    print("\nservo 6 Hz, worst joint angle error (deg) every 0.05 s: "
+          + "; ".join(f"x{k}: " + " ".join(f"{e:.2f}" for e in v[::3]) for k, v in curves.items()))
+    np.testing.assert_allclose(curves[0.05], curves[1.0], rtol=1e-3, atol=1e-3)
+    np.testing.assert_allclose(curves[5.0], curves[1.0], rtol=1e-3, atol=1e-3)
+    assert curves[1.0][-1] < 0.2 * curves[1.0].max()        # and it settles back
+
+
+def test_gauss_seidel_option_and_the_direct_solve():
+    seps = {}
+    for solver in ("gauss-seidel", "direct"):
+        top = np.array([0.0, 0.0, 3.0])
+        q = qy(math.pi / 2)
+        specs = [BodySpec("anchor", "sphere", top, ID, radius=0.03, fixed=True, contact="none")]
+        for k, mass in enumerate([0.1, 0.3, 1.0, 3.0, 10.0, 10.0]):
+            specs.append(BodySpec(f"l{k}", "capsule", top + [(k + 0.5) * 0.3, 0, 0], q, radius=0.03,
+                                  half_length=0.12, axis=2, parent=k, joint=top + [k * 0.3, 0, 0], contact="none",
+                                  mass=mass))
+        model = build_model(specs, settings=WorldSettings(solver=solver))
+        state = PhysicsState(model)
+        worst = 0.0
+        for _ in range(20):
+            step(model, state, DT, steps=100)
+            worst = max(worst, float(joint_separation(model, state).max()))
+        seps[solver] = worst
+    print(f"\nheavy weight on a light rope, dt 0.0005: joint separation Gauss-Seidel {seps['gauss-seidel'] * 1000:.3f} "
+          f"mm, direct tree solve {seps['direct'] * 1000:.4f} mm")
+    assert seps["direct"] < 1e-4 < seps["gauss-seidel"]
+    with pytest.raises(PhysicsError, match="solver must be"):
+        build_model([_sphere()], settings=WorldSettings(solver="magic"))

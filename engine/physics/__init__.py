@@ -14,12 +14,12 @@ from engine.physics.model import (
     shape_mass_inertia,
 )
 from engine.physics.world import (
-    PhysicsState, energy, joint_separation, rotvec_between, state_from_kinematic, step,
+    PhysicsState, energy, joint_separation, rotvec_between, servo_targets_from_pose, state_from_kinematic, step,
 )
 
 __all__ = [
     "BodySpec", "ContactSettings", "CreatureBodyOptions", "DEFAULT_FOOT", "DEFAULT_GROUND", "DEFAULT_PAIR",
     "PhysicsError", "PhysicsModel", "PhysicsState", "SimulationDiverged", "Terrain", "WorldSettings",
     "build_model", "energy", "joint_separation", "model_from_creatures", "rotvec_between",
-    "shape_mass_inertia", "state_from_kinematic", "step",
+    "servo_targets_from_pose", "shape_mass_inertia", "state_from_kinematic", "step",
 ]

@@ -299,6 +299,181 @@ def _closest_segments(p1x, p1y, p1z, q1x, q1y, q1z, p2x, p2y, p2z, q2x, q2y, q2z
 
 
 @njit(cache=True)
+def _servo_inertia_local(m, s):
+    """PD servo inertia for the Gauss-Seidel solver: the child body alone about the joint,
+    reduced with the parent body alone. Sequential impulses need the pair's own effective
+    inertia (a sub-tree's would overshoot a light child and diverge); the cost is that a
+    joint carrying a heavy sub-tree is softer and less damped than its setting."""
+    for j in range(m.joint_parent.shape[0]):
+        if m.joint_locked[j] != 0:
+            continue
+        a = m.joint_parent[j]
+        b = m.joint_child[j]
+        u00 = u01 = u02 = u11 = u12 = u22 = 0.0
+        for side in range(2):
+            bb = a if side == 0 else b
+            if m.body_inv_mass[bb] == 0.0:
+                continue
+            r = s.joint_ra if side == 0 else s.joint_rb
+            rx, ry, rz = r[j, 0], r[j, 1], r[j, 2]
+            q = s.body_rot[bb]
+            mass = 1.0 / m.body_inv_mass[bb]
+            r2 = rx * rx + ry * ry + rz * rz
+            e00 = e01 = e02 = e11 = e12 = e22 = 0.0
+            for ax in range(3):
+                cx, cy, cz = _qrot(q[0], q[1], q[2], q[3], 1.0 if ax == 0 else 0.0, 1.0 if ax == 1 else 0.0,
+                                   1.0 if ax == 2 else 0.0)
+                mom = m.body_inertia[bb, ax]
+                e00 += mom * cx * cx
+                e01 += mom * cx * cy
+                e02 += mom * cx * cz
+                e11 += mom * cy * cy
+                e12 += mom * cy * cz
+                e22 += mom * cz * cz
+            e00 += mass * (r2 - rx * rx)
+            e11 += mass * (r2 - ry * ry)
+            e22 += mass * (r2 - rz * rz)
+            e01 -= mass * rx * ry
+            e02 -= mass * rx * rz
+            e12 -= mass * ry * rz
+            _inv3_sym_into(e00, e01, e02, e11, e12, e22, s.joint_pd_mass, j)
+            P = s.joint_pd_mass
+            u00 += P[j, 0, 0]
+            u01 += P[j, 0, 1]
+            u02 += P[j, 0, 2]
+            u11 += P[j, 1, 1]
+            u12 += P[j, 1, 2]
+            u22 += P[j, 2, 2]
+        P = s.joint_pd_invmass
+        P[j, 0, 0], P[j, 0, 1], P[j, 0, 2] = u00, u01, u02
+        P[j, 1, 0], P[j, 1, 1], P[j, 1, 2] = u01, u11, u12
+        P[j, 2, 0], P[j, 2, 1], P[j, 2, 2] = u02, u12, u22
+        _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
+
+
+@njit(cache=True)
+def _servo_inertia(m, s):
+    """PD servo inertia per joint (Zordan et al. 2005 section 4: "I is the inertial matrix
+    of the outboard body"), taken as the whole outboard sub-tree about the joint point,
+    reduced with the rest of the tree about the same point: I = (I_out^-1 + I_in^-1)^-1.
+    About the joint, so a hanging rod set to f Hz swings at f Hz; the whole sub-tree, so
+    a neck servo carrying a heavy head is as stiff, in Hz, as a finger's (the outboard
+    body alone would leave the head's mode at a tenth of the damping asked for).
+
+    Composite rigid bodies, one backward pass (children before parents): mass, first
+    moment and second moment about a reference point (the first body's centre, against
+    cancellation far from the origin); a fixed body makes its side immovable."""
+    n = s.body_pos.shape[0]
+    ox, oy, oz = s.body_pos[0, 0], s.body_pos[0, 1], s.body_pos[0, 2]
+    sm = s.sub_mass
+    sc = s.sub_moment
+    sj = s.sub_second
+    for b in range(n):
+        sm[b] = 0.0
+        s.sub_fixed[b] = 0
+        for c in range(3):
+            sc[b, c] = 0.0
+            for d in range(3):
+                sj[b, c, d] = 0.0
+    for b in range(n - 1, -1, -1):
+        if m.body_inv_mass[b] == 0.0:
+            s.sub_fixed[b] = 1
+        else:
+            mass = 1.0 / m.body_inv_mass[b]
+            x = s.body_pos[b, 0] - ox
+            y = s.body_pos[b, 1] - oy
+            z = s.body_pos[b, 2] - oz
+            q = s.body_rot[b]
+            sm[b] += mass
+            sc[b, 0] += mass * x
+            sc[b, 1] += mass * y
+            sc[b, 2] += mass * z
+            # I_com (world) + m (|x|^2 E - x x^T)
+            for ax in range(3):
+                cx, cy, cz = _qrot(q[0], q[1], q[2], q[3], 1.0 if ax == 0 else 0.0, 1.0 if ax == 1 else 0.0,
+                                   1.0 if ax == 2 else 0.0)
+                mom = m.body_inertia[b, ax]
+                sj[b, 0, 0] += mom * cx * cx
+                sj[b, 0, 1] += mom * cx * cy
+                sj[b, 0, 2] += mom * cx * cz
+                sj[b, 1, 1] += mom * cy * cy
+                sj[b, 1, 2] += mom * cy * cz
+                sj[b, 2, 2] += mom * cz * cz
+            r2 = x * x + y * y + z * z
+            sj[b, 0, 0] += mass * (r2 - x * x)
+            sj[b, 1, 1] += mass * (r2 - y * y)
+            sj[b, 2, 2] += mass * (r2 - z * z)
+            sj[b, 0, 1] -= mass * x * y
+            sj[b, 0, 2] -= mass * x * z
+            sj[b, 1, 2] -= mass * y * z
+        j = m.body_joint[b]
+        if j >= 0:
+            p = m.joint_parent[j]
+            sm[p] += sm[b]
+            if s.sub_fixed[b]:
+                s.sub_fixed[p] = 1
+            for c in range(3):
+                sc[p, c] += sc[b, c]
+                for d in range(c, 3):
+                    sj[p, c, d] += sj[b, c, d]
+    # tree totals live at each tree's root; walk up once per joint to find it
+    for j in range(m.joint_parent.shape[0]):
+        if m.joint_locked[j] != 0:
+            continue
+        child = m.joint_child[j]
+        root = child
+        while m.body_joint[root] >= 0:
+            root = m.joint_parent[m.body_joint[root]]
+        # the joint point (from the parent side), relative to the reference
+        px = s.body_pos[m.joint_parent[j], 0] + s.joint_ra[j, 0] - ox
+        py = s.body_pos[m.joint_parent[j], 1] + s.joint_ra[j, 1] - oy
+        pz = s.body_pos[m.joint_parent[j], 2] + s.joint_ra[j, 2] - oz
+        u00 = u01 = u02 = u11 = u12 = u22 = 0.0
+        for side in range(2):
+            if side == 0:
+                if s.sub_fixed[child]:
+                    continue
+                mass = sm[child]
+                cx, cy, cz = sc[child, 0], sc[child, 1], sc[child, 2]
+                j00, j01, j02 = sj[child, 0, 0], sj[child, 0, 1], sj[child, 0, 2]
+                j11, j12, j22 = sj[child, 1, 1], sj[child, 1, 2], sj[child, 2, 2]
+            else:
+                if s.sub_fixed[root] and not s.sub_fixed[child]:
+                    continue
+                mass = sm[root] - sm[child]
+                cx, cy, cz = sc[root, 0] - sc[child, 0], sc[root, 1] - sc[child, 1], sc[root, 2] - sc[child, 2]
+                j00, j01, j02 = sj[root, 0, 0] - sj[child, 0, 0], sj[root, 0, 1] - sj[child, 0, 1], \
+                    sj[root, 0, 2] - sj[child, 0, 2]
+                j11, j12, j22 = sj[root, 1, 1] - sj[child, 1, 1], sj[root, 1, 2] - sj[child, 1, 2], \
+                    sj[root, 2, 2] - sj[child, 2, 2]
+            if mass <= 0.0:
+                continue
+            # second moment about the joint point p, from the one about the reference:
+            # J_p = J_ref - 2 (c.p) E + (c p^T + p c^T) + m (|p|^2 E - p p^T), c the first moment
+            cp = cx * px + cy * py + cz * pz
+            pp = px * px + py * py + pz * pz
+            e00 = j00 - 2 * cp + 2 * cx * px + mass * (pp - px * px)
+            e11 = j11 - 2 * cp + 2 * cy * py + mass * (pp - py * py)
+            e22 = j22 - 2 * cp + 2 * cz * pz + mass * (pp - pz * pz)
+            e01 = j01 + (cx * py + px * cy) - mass * px * py
+            e02 = j02 + (cx * pz + px * cz) - mass * px * pz
+            e12 = j12 + (cy * pz + py * cz) - mass * py * pz
+            _inv3_sym_into(e00, e01, e02, e11, e12, e22, s.joint_pd_mass, j)
+            P = s.joint_pd_mass
+            u00 += P[j, 0, 0]
+            u01 += P[j, 0, 1]
+            u02 += P[j, 0, 2]
+            u11 += P[j, 1, 1]
+            u12 += P[j, 1, 2]
+            u22 += P[j, 2, 2]
+        P = s.joint_pd_invmass
+        P[j, 0, 0], P[j, 0, 1], P[j, 0, 2] = u00, u01, u02
+        P[j, 1, 0], P[j, 1, 1], P[j, 1, 2] = u01, u11, u12
+        P[j, 2, 0], P[j, 2, 1], P[j, 2, 2] = u02, u12, u22
+        _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
+
+
+@njit(cache=True)
 def _prepare(m, s, h):
     n = s.body_pos.shape[0]
     # World inverse inertia R diag(I^-1) R^T (zero for fixed bodies).
@@ -375,51 +550,20 @@ def _prepare(m, s, h):
             k22 += -t20 * ry + t21 * rx
         _inv3_sym_into(k00, k01, k02, k11, k12, k22, s.joint_kinv, j)
         _inv3_sym_into(l00, l01, l02, l11, l12, l22, s.joint_ang_kinv, j)
-        # PD servo inertia (Zordan et al. 2005 section 4: "I is the inertial matrix of the
-        # outboard body"): the child's inertia about the joint point, I + m (|r|^2 E - r r^T),
-        # reduced with the parent's about the same point, (Ja^-1 + Jb^-1)^-1. About the
-        # joint, not the centre of mass, so a servo set to f Hz swings a hanging limb at
-        # f Hz (a rod about its end has 4x its central inertia).
-        if m.joint_locked[j] == 0:
-            u00 = u01 = u02 = u11 = u12 = u22 = 0.0
-            for side in range(2):
-                bb = a if side == 0 else b
-                if m.body_inv_mass[bb] == 0.0:
-                    continue
-                rx, ry, rz = (rax, ray, raz) if side == 0 else (rbx, rby, rbz)
-                q = s.body_rot[bb]
-                mass = 1.0 / m.body_inv_mass[bb]
-                r2 = rx * rx + ry * ry + rz * rz
-                # world inertia R diag(I) R^T from the body-frame moments
-                e00 = e01 = e02 = e11 = e12 = e22 = 0.0
-                for ax in range(3):
-                    cx, cy, cz = _qrot(q[0], q[1], q[2], q[3], 1.0 if ax == 0 else 0.0, 1.0 if ax == 1 else 0.0,
-                                       1.0 if ax == 2 else 0.0)
-                    mom = m.body_inertia[bb, ax]
-                    e00 += mom * cx * cx
-                    e01 += mom * cx * cy
-                    e02 += mom * cx * cz
-                    e11 += mom * cy * cy
-                    e12 += mom * cy * cz
-                    e22 += mom * cz * cz
-                e00 += mass * (r2 - rx * rx)
-                e11 += mass * (r2 - ry * ry)
-                e22 += mass * (r2 - rz * rz)
-                e01 -= mass * rx * ry
-                e02 -= mass * rx * rz
-                e12 -= mass * ry * rz
-                _inv3_sym_into(e00, e01, e02, e11, e12, e22, s.joint_pd_mass, j)
-                P = s.joint_pd_mass
-                u00 += P[j, 0, 0]
-                u01 += P[j, 0, 1]
-                u02 += P[j, 0, 2]
-                u11 += P[j, 1, 1]
-                u12 += P[j, 1, 2]
-                u22 += P[j, 2, 2]
-            _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
 
     if m.params[P_SOLVER] != 0.0:
-        _factor_tree(m, s)
+        _servo_inertia(m, s)
+    else:
+        _servo_inertia_local(m, s)
+
+    if m.params[P_SOLVER] != 0.0:
+        # servo impulses are re-accumulated every substep by the direct solve
+        for j in range(m.joint_parent.shape[0]):
+            if _servo_direct(m, s, j):
+                s.joint_pd_imp[j, 0] = 0.0
+                s.joint_pd_imp[j, 1] = 0.0
+                s.joint_pd_imp[j, 2] = 0.0
+        _factor_tree(m, s, h)
 
     # Ground contacts: each feature (capsule end sphere, box corner) against the terrain.
     x0 = m.params[P_TERRAIN_X0]
@@ -624,9 +768,10 @@ def _warm_start(m, s):
             _apply(m, s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2], px, py, pz, -1.0)
             _apply(m, s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2], px, py, pz, 1.0)
         gs = 1.0 if m.params[P_SOLVER] == 0.0 else 0.0
-        lx = gs * s.joint_lock_imp[j, 0] + s.joint_pd_imp[j, 0]
-        ly = gs * s.joint_lock_imp[j, 1] + s.joint_pd_imp[j, 1]
-        lz = gs * s.joint_lock_imp[j, 2] + s.joint_pd_imp[j, 2]
+        pd = 1.0 if (gs == 1.0 or not _servo_direct(m, s, j)) else 0.0
+        lx = gs * s.joint_lock_imp[j, 0] + pd * s.joint_pd_imp[j, 0]
+        ly = gs * s.joint_lock_imp[j, 1] + pd * s.joint_pd_imp[j, 1]
+        lz = gs * s.joint_lock_imp[j, 2] + pd * s.joint_pd_imp[j, 2]
         _apply_ang(s, a, lx, ly, lz, -1.0)
         _apply_ang(s, b, lx, ly, lz, 1.0)
     for f in range(m.feat_body.shape[0]):
@@ -698,12 +843,21 @@ def _invert_into(A, d, out, work):
 
 
 @njit(cache=True)
-def _node_dim(m, node):
-    """6 for a body, 3 for a ball joint, 6 for a locked joint (point + rotation rows)."""
+def _servo_direct(m, s, j):
+    """A PD servo solved in the tree: active and without a torque limit (a limit is an
+    inequality, left to sequential impulses)."""
+    return m.joint_locked[j] == 0 and s.joint_pd_hz[j] > 0.0 and s.joint_pd_max_torque[j] <= 0.0
+
+
+@njit(cache=True)
+def _node_dim(m, s, node):
+    """6 for a body, 3 for a ball joint, 6 for a locked joint or a joint with a servo
+    (point rows + rotation rows)."""
     nb = m.body_inv_mass.shape[0]
     if node < nb:
         return 6
-    return 6 if m.joint_locked[node - nb] != 0 else 3
+    j = node - nb
+    return 6 if (m.joint_locked[j] != 0 or _servo_direct(m, s, j)) else 3
 
 
 @njit(cache=True)
@@ -722,8 +876,8 @@ def _edge_block(m, s, node, H):
         H[3, 1], H[3, 2] = -rz, ry
         H[4, 0], H[4, 2] = rz, -rx
         H[5, 0], H[5, 1] = -ry, rx
-        if m.joint_locked[j] != 0:
-            # rotation rows of a locked joint: Cdot = w_b - w_a
+        if _node_dim(m, s, nb + j) == 6:
+            # rotation rows of a locked joint or a servo: Cdot = w_b - w_a
             H[3, 3] = H[4, 4] = H[5, 5] = 1.0
     else:
         j = node - nb
@@ -732,23 +886,23 @@ def _edge_block(m, s, node, H):
         H[0, 4], H[0, 5] = -rz, ry
         H[1, 3], H[1, 5] = rz, -rx
         H[2, 3], H[2, 4] = -ry, rx
-        if m.joint_locked[j] != 0:
+        if _node_dim(m, s, node) == 6:
             H[3, 3] = H[4, 4] = H[5, 5] = -1.0
 
 
 @njit(cache=True)
-def _lock_error(m, s, j, a, b):
-    """Rotation vector (world) taking the locked target orientation q_a * rest to q_b."""
+def _lock_error(m, s, j, a, b, target):
+    """Rotation vector (world) taking the target orientation q_a * target[j] to q_b."""
     qa = s.body_rot[a]
     qb = s.body_rot[b]
-    r = m.joint_rest_rot[j]
+    r = target[j]
     gw, gx, gy, gz = _qmul(qa[0], qa[1], qa[2], qa[3], r[0], r[1], r[2], r[3])
     dw, dx, dy, dz = _qmul(qb[0], qb[1], qb[2], qb[3], gw, -gx, -gy, -gz)
     return _qrotvec(dw, dx, dy, dz)
 
 
 @njit(cache=True)
-def _factor_tree(m, s):
+def _factor_tree(m, s, h):
     """Baraff's linear-time factorization ("Linear-Time Dynamics using Lagrange
     Multipliers", SIGGRAPH 1996) of [[M, J^T], [J, 0]] over the tree whose nodes are the
     dynamic bodies (6x6 mass blocks) and the ball joints (3x3 zero blocks). Eliminating
@@ -780,16 +934,28 @@ def _factor_tree(m, s):
             D[i, 4, 3] = D[i, 3, 4]
             D[i, 5, 3] = D[i, 3, 5]
             D[i, 5, 4] = D[i, 4, 5]
+        else:
+            j = i - nb
+            if _servo_direct(m, s, j):
+                # soft rotation rows (Catto, "Soft Constraints", GDC 2011):
+                # J v' + (beta/h) C + gamma lambda = 0, gamma = 1 / (h (c + h k)) with the
+                # spring k = I w^2 and damper c = 2 zeta w I of the servo's joint inertia I:
+                # gamma = I^-1 / (h w (2 zeta + h w)); beta/h is b2MakeSoft's bias rate
+                omega = 2.0 * math.pi * s.joint_pd_hz[j]
+                g = 1.0 / (h * omega * (2.0 * s.joint_pd_zeta[j] + h * omega))
+                for r in range(3):
+                    for c in range(3):
+                        D[i, 3 + r, 3 + c] = -g * s.joint_pd_invmass[j, r, c]
     H = s.node_H
     # leaves first: invert, then pass the Schur complement up to the parent
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]
-        d = _node_dim(m, i)
+        d = _node_dim(m, s, i)
         _invert_into(D[i], d, s.node_Dinv[i], s.node_work)
         p = m.node_parent[i]
         if p < 0:
             continue
-        dp = _node_dim(m, p)
+        dp = _node_dim(m, s, p)
         _edge_block(m, s, i, H)
         L = s.node_L[i]
         Di = s.node_Dinv[i]
@@ -845,16 +1011,31 @@ def _solve_points_direct(m, s, h, use_bias):
             if m.joint_locked[j] != 0:
                 ex = ey = ez = 0.0
                 if use_bias:
-                    ex, ey, ez = _lock_error(m, s, j, a, b)
+                    ex, ey, ez = _lock_error(m, s, j, a, b, m.joint_rest_rot)
                 x[i, 3] = -(s.body_angvel[b, 0] - s.body_angvel[a, 0] + jbias * ex)
                 x[i, 4] = -(s.body_angvel[b, 1] - s.body_angvel[a, 1] + jbias * ey)
                 x[i, 5] = -(s.body_angvel[b, 2] - s.body_angvel[a, 2] + jbias * ez)
+            elif _servo_direct(m, s, j):
+                # the servo spring acts in both passes: the relax pass solves for the
+                # increment on top of this substep's impulse so far (gamma lambda_acc)
+                omega = 2.0 * math.pi * s.joint_pd_hz[j]
+                br = omega / (2.0 * s.joint_pd_zeta[j] + h * omega)
+                g = 1.0 / (h * omega * (2.0 * s.joint_pd_zeta[j] + h * omega))
+                ex, ey, ez = _lock_error(m, s, j, a, b, s.joint_target_rot)
+                qa = s.body_rot[a]
+                twx, twy, twz = _qrot(qa[0], qa[1], qa[2], qa[3], s.joint_target_angvel[j, 0],
+                                      s.joint_target_angvel[j, 1], s.joint_target_angvel[j, 2])
+                lx, ly, lz = _mat3_vec(s.joint_pd_invmass, j, s.joint_pd_imp[j, 0], s.joint_pd_imp[j, 1],
+                                       s.joint_pd_imp[j, 2])
+                x[i, 3] = -(s.body_angvel[b, 0] - s.body_angvel[a, 0] - twx + br * ex + g * lx)
+                x[i, 4] = -(s.body_angvel[b, 1] - s.body_angvel[a, 1] - twy + br * ey + g * ly)
+                x[i, 5] = -(s.body_angvel[b, 2] - s.body_angvel[a, 2] - twz + br * ez + g * lz)
     # forward (leaves first): x_parent -= L_i^T x_i; keep z_i = D_i^-1 x_i
     H = s.node_H
     z = s.node_z
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]
-        d = _node_dim(m, i)
+        d = _node_dim(m, s, i)
         Di = s.node_Dinv[i]
         for r in range(d):
             acc = 0.0
@@ -863,7 +1044,7 @@ def _solve_points_direct(m, s, h, use_bias):
             z[i, r] = acc
         p = m.node_parent[i]
         if p >= 0:
-            dp = _node_dim(m, p)
+            dp = _node_dim(m, s, p)
             L = s.node_L[i]
             for c in range(dp):
                 acc = 0.0
@@ -873,10 +1054,10 @@ def _solve_points_direct(m, s, h, use_bias):
     # back substitution (root first): x_i = z_i - L_i x_parent
     for k in range(m.node_order.shape[0]):
         i = m.node_order[k]
-        d = _node_dim(m, i)
+        d = _node_dim(m, s, i)
         p = m.node_parent[i]
         if p >= 0:
-            dp = _node_dim(m, p)
+            dp = _node_dim(m, s, p)
             L = s.node_L[i]
             for r in range(d):
                 acc = 0.0
@@ -895,10 +1076,13 @@ def _solve_points_direct(m, s, h, use_bias):
                 s.body_angvel[i, c] += x[i, 3 + c]
         else:
             j = i - nb
+            servo = _servo_direct(m, s, j)
             for c in range(3):
                 s.joint_imp[j, c] = -x[i, c]
                 if m.joint_locked[j] != 0:
                     s.joint_lock_imp[j, c] = -x[i, 3 + c]
+                elif servo:
+                    s.joint_pd_imp[j, c] += -x[i, 3 + c]
 
 
 @njit(cache=True)
@@ -956,6 +1140,8 @@ def _solve_joints(m, s, h, use_bias, do_points):
         pd_hz = s.joint_pd_hz[j]
         if not locked and pd_hz <= 0.0:
             continue
+        if not do_points and _servo_direct(m, s, j):
+            continue          # solved in the tree with the joints
         qa = s.body_rot[a]
         qb = s.body_rot[b]
         if locked:

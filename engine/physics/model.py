@@ -27,6 +27,7 @@ Array fields (read-only; n = nbody, j = njoint, f = nfeature, p = npair):
     joint_anchor_parent, joint_anchor_child (j, 3) float64  joint point in each body frame
     joint_rest_rot (j, 4) float64  child rotation relative to the parent at rest
     joint_locked (j,) int32        1: all relative rotation fixed at rest
+    joint_servo_hz, joint_servo_zeta (j,) float64  default PD servo gains (0 Hz: passive)
     feat_body (f,) int32, feat_local (f, 3), feat_radius (f,), feat_spin_radius (f,)
                                    ground contact features: capsule end spheres, box
                                    corners, the sphere itself
@@ -166,7 +167,8 @@ class Terrain:
 class BodySpec:
     """One rigid body for ``build_model``. ``pos``/``rot`` give its rest pose (world).
     A joint to ``parent`` (an index into the spec list, -1 for none) sits at the world
-    point ``joint`` of the rest pose."""
+    point ``joint`` of the rest pose. ``servo_hz``/``servo_zeta`` are the default PD servo
+    gains of that joint (0 Hz: passive), copied into every new PhysicsState."""
 
     name: str
     shape: str
@@ -184,6 +186,8 @@ class BodySpec:
     contact: str = "ground"
     fixed: bool = False
     character: int = 0
+    servo_hz: float = 0.0
+    servo_zeta: float = 1.0
 
 
 def shape_mass_inertia(shape: int, size: np.ndarray, density: float) -> tuple[float, np.ndarray]:
@@ -361,6 +365,7 @@ def build_model(specs: list[BodySpec], *, terrain: Terrain | None = None,
     seg_r = np.zeros(n)
     body_joint = np.full(n, -1, np.int32)
     j_parent, j_child, j_ap, j_ac, j_rest, j_locked, j_names = [], [], [], [], [], [], []
+    j_servo = []
     f_body, f_local, f_rad, f_spin = [], [], [], []
     for i, sp in enumerate(specs):
         if sp.shape not in SHAPES:
@@ -455,6 +460,12 @@ def build_model(specs: list[BodySpec], *, terrain: Terrain | None = None,
             j_rest.append(_quat_mul(_quat_conj(qa), rest_rot[i]))
             j_locked.append(1 if sp.locked else 0)
             j_names.append(sp.name)
+            if not (math.isfinite(sp.servo_hz) and sp.servo_hz >= 0):
+                raise PhysicsError(f"servo_hz must be >= 0, got {sp.servo_hz}", subject=sp.name, field="servo_hz")
+            if not (math.isfinite(sp.servo_zeta) and sp.servo_zeta >= 0):
+                raise PhysicsError(f"servo_zeta must be >= 0, got {sp.servo_zeta}", subject=sp.name,
+                                   field="servo_zeta")
+            j_servo.append((sp.servo_hz, sp.servo_zeta))
             if specs[sp.parent].character != sp.character:
                 raise PhysicsError(f"joint to '{pa.name}' crosses characters", subject=sp.name, field="parent")
         elif sp.locked:
@@ -479,6 +490,8 @@ def build_model(specs: list[BodySpec], *, terrain: Terrain | None = None,
         joint_anchor_child=np.array(j_ac, np.float64).reshape(nj, 3),
         joint_rest_rot=np.array(j_rest, np.float64).reshape(nj, 4),
         joint_locked=np.array(j_locked, np.int32),
+        joint_servo_hz=np.array([v[0] for v in j_servo], np.float64),
+        joint_servo_zeta=np.array([v[1] for v in j_servo], np.float64),
         feat_body=np.array(f_body, np.int32), feat_local=np.array(f_local, np.float64).reshape(-1, 3),
         feat_radius=np.array(f_rad, np.float64), feat_spin_radius=np.array(f_spin, np.float64),
         pair_a=np.array(pairs_a, np.int32), pair_b=np.array(pairs_b, np.int32),
@@ -515,7 +528,10 @@ class CreatureBodyOptions:
     """How a creature becomes rigid bodies. ``shape`` 'auto' makes a body a capsule
     along its longest axis when that axis is at least ``capsule_ratio`` times the next
     one, else a box. ``mass`` overrides per body name (kg); ``locked`` names bodies whose
-    joint to the parent is locked; ``fixed`` names bodies pinned in place."""
+    joint to the parent is locked; ``fixed`` names bodies pinned in place; ``servo_hz`` and
+    ``servo_zeta`` set every joint's PD servo (Zordan et al. 2005: one hand-picked gain
+    pair for the whole character; mass-normalized here, so one pair suits a mouse and a
+    giant)."""
 
     density: float = 1000.0
     shape: str = "auto"
@@ -523,6 +539,8 @@ class CreatureBodyOptions:
     mass: dict = field(default_factory=dict)
     locked: tuple = ()
     fixed: tuple = ()
+    servo_hz: float = 0.0
+    servo_zeta: float = 1.0
 
 
 def _creature_specs(creature, character: int, opts: CreatureBodyOptions, prefix: str) -> list[BodySpec]:
@@ -549,7 +567,8 @@ def _creature_specs(creature, character: int, opts: CreatureBodyOptions, prefix:
                       mass=opts.mass.get(name), parent=(parent + 0) if parent >= 0 else -1,
                       joint=np.array(creature.body_joint[i]) if parent >= 0 else None,
                       locked=name in opts.locked, fixed=name in opts.fixed,
-                      contact="foot" if (creature.body_caps[i] & foot_bit) else "ground", character=character)
+                      contact="foot" if (creature.body_caps[i] & foot_bit) else "ground", character=character,
+                      servo_hz=opts.servo_hz, servo_zeta=opts.servo_zeta)
         if use_capsule:
             r = float(0.5 * (ext[order[1]] + ext[order[2]]))
             specs.append(BodySpec(shape="capsule", radius=r, half_length=max(float(ext[long_ax]) - r, 0.0),

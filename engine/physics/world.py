@@ -53,6 +53,11 @@ class StateArrays(NamedTuple):
     joint_kinv: np.ndarray
     joint_ang_kinv: np.ndarray
     joint_pd_mass: np.ndarray
+    joint_pd_invmass: np.ndarray
+    sub_mass: np.ndarray
+    sub_moment: np.ndarray
+    sub_second: np.ndarray
+    sub_fixed: np.ndarray
     joint_imp: np.ndarray
     joint_lock_imp: np.ndarray
     joint_pd_imp: np.ndarray
@@ -102,9 +107,11 @@ class PhysicsState:
             body_linvel=z((n, 3)), body_angvel=z((n, 3)), body_force=z((n, 3)), body_torque=z((n, 3)),
             body_track_vel=z((n, 3)), body_track_gain=z(n),
             joint_target_rot=np.array(model.joint_rest_rot), joint_target_angvel=z((j, 3)),
-            joint_pd_hz=z(j), joint_pd_zeta=np.ones(j), joint_pd_max_torque=z(j),
+            joint_pd_hz=np.array(model.joint_servo_hz), joint_pd_zeta=np.array(model.joint_servo_zeta),
+            joint_pd_max_torque=z(j),
             body_iinv_world=z((n, 3, 3)), joint_ra=z((j, 3)), joint_rb=z((j, 3)), joint_kinv=z((j, 3, 3)),
-            joint_ang_kinv=z((j, 3, 3)), joint_pd_mass=z((j, 3, 3)), joint_imp=z((j, 3)), joint_lock_imp=z((j, 3)), joint_pd_imp=z((j, 3)),
+            joint_ang_kinv=z((j, 3, 3)), joint_pd_mass=z((j, 3, 3)), joint_pd_invmass=z((j, 3, 3)), sub_mass=z(n), sub_moment=z((n, 3)),
+            sub_second=z((n, 3, 3)), sub_fixed=z(n, np.int32), joint_imp=z((j, 3)), joint_lock_imp=z((j, 3)), joint_pd_imp=z((j, 3)),
             feat_active=z(f, np.int32), feat_point=z((f, 3)), feat_r=z((f, 3)), feat_normal=z((f, 3)),
             feat_t1=z((f, 3)), feat_t2=z((f, 3)), feat_sep=z(f), feat_mass=z((f, 4)), feat_imp=z((f, 4)),
             pair_active=z(p, np.int32), pair_point=z((p, 3)), pair_ra=z((p, 3)), pair_rb=z((p, 3)),
@@ -229,6 +236,25 @@ def step(model: PhysicsModel, state: PhysicsState, dt: float, *, substeps: int =
     if K.step_kernel(model.arrays, state.arrays, float(dt), int(substeps), int(iterations), int(projections),
                      int(steps)):
         raise SimulationDiverged(f"simulation became non-finite at t = {state.time:.6f} s")
+
+
+def servo_targets_from_pose(model: PhysicsModel, body_rot, out: np.ndarray | None = None) -> np.ndarray:
+    """PD servo targets (child rotation relative to its parent, (njoint, 4)) that hold the
+    world body rotations ``body_rot`` (n, 4): q_parent^-1 q_child. Write them into
+    ``state.joint_target_rot`` to make the servos track a kinematic pose."""
+    q = np.asarray(body_rot, dtype=np.float64)
+    if q.shape != (model.nbody, 4):
+        raise PhysicsError(f"body_rot must have shape ({model.nbody}, 4), got {q.shape}", field="body_rot",
+                           kind="state", subject="pose")
+    if out is None:
+        out = np.empty((model.njoint, 4))
+    qa = q[model.joint_parent]
+    qb = q[model.joint_child]
+    aw, av = qa[:, 0], -qa[:, 1:]
+    bw, bv = qb[:, 0], qb[:, 1:]
+    out[:, 0] = aw * bw - np.sum(av * bv, axis=1)
+    out[:, 1:] = aw[:, None] * bv + bw[:, None] * av + np.cross(av, bv)
+    return out
 
 
 def joint_separation(model: PhysicsModel, state: PhysicsState, out: np.ndarray | None = None) -> np.ndarray:
