@@ -115,7 +115,57 @@ class GaitController:
         self._lean = np.zeros(2)
         self._prev_v = np.zeros(2)
         self._started = False
+        #: Share of the geometric sweep the IK meets exactly, per group (see ``_calibrate``).
+        self.group_sweep_scale = np.ones(G)
+        self.group_sweep_table = r.group_sweep.copy()
         self._rebuild_patterns()
+        if r.nstep:
+            self._calibrate()
+
+    def _calibrate(self, tol: float = 2e-4, tries: int = 10) -> None:
+        """Shrink each group's allowed sweep until the IK meets the stance goals it implies
+        (every foot of the group displaced together along +-x and +-y by the sweep, the
+        hips crouched as the gait crouches them) within ``tol`` metres. The geometric
+        sweep of ``rig`` assumes each leg bends freely; branching legs (whose feet keep
+        their relative positions) and single-segment legs reach less, and this measures
+        it with the solver itself."""
+        from engine.ik import IKGoals, plan_for, solve_ik
+
+        c, r = self.creature, self.rig
+        plan = plan_for(c, [int(b) for b in self.goal_bodies])
+        scratch = plan.make_scratch()
+        goals = IKGoals(c.nbody)
+        out_p = np.zeros((c.nbody, 3))
+        out_r = np.zeros((c.nbody, 4))
+        out_r[:, 0] = 1.0
+        for g in range(r.ngroup):
+            Lg = r.group_length[g]
+            crouch_share = max(float(self._params(g, 0.0)[7]), float(r.group_min_crouch[g]))
+            sweep = _interp_sweep(r.group_sweep[g], crouch_share)
+            root = c.body_rest_pos[0].copy()
+            root[2] -= crouch_share * Lg
+            feet = np.flatnonzero(r.step_group[r.foot_stepper] == g)
+            scale = 1.0
+            for _ in range(tries):
+                d = 0.97 * sweep * scale
+                worst = 0.0
+                for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)):
+                    goals.clear()
+                    for f in range(r.nfoot):
+                        b = int(r.foot_body[f])
+                        p = r.foot_neutral[f].copy()
+                        if f in feet:
+                            p[0] += dx
+                            p[1] += dy
+                        goals.set(b, p, r.foot_rest_rot[f], 1.0, 1.0)
+                    solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
+                    err = np.linalg.norm(out_p[r.foot_body[feet]] - goals.goal_pos[r.foot_body[feet]], axis=1)
+                    worst = max(worst, float(np.max(err)))
+                if worst <= tol or d < 1e-4:
+                    break
+                scale *= 0.8
+            self.group_sweep_scale[g] = scale
+            self.group_sweep_table[g] = r.group_sweep[g] * scale
 
     # -- control -------------------------------------------------------------------------
 
@@ -301,7 +351,7 @@ class GaitController:
             top = self._layers[g][0][0].table[-1, 0]
             p = self._params(g, top)
             crouch = max(p[7], r.group_min_crouch[g]) * Lg
-            sweep = _interp_sweep(r.group_sweep[g], crouch / max(Lg, 1e-9))
+            sweep = _interp_sweep(self.group_sweep_table[g], crouch / max(Lg, 1e-9))
             stride_max = 1.6 * sweep / max(p[2], 0.05)
             limit = min(limit, cap * min(p[1] * Lg, stride_max), top * Lg * 1.25)
         self.speed_limit = limit
@@ -347,7 +397,7 @@ class GaitController:
             v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
             p = self._params(g, v_eff / Lg)
             crouch = max(p[7], r.group_min_crouch[g]) * Lg
-            sweep = _interp_sweep(r.group_sweep[g], crouch / max(Lg, 1e-9))
+            sweep = _interp_sweep(self.group_sweep_table[g], crouch / max(Lg, 1e-9))
             duty = p[2]
             stride = min(p[1] * Lg, 1.6 * sweep / duty) if sweep > 0 else p[1] * Lg
             f_g = v_eff / max(stride, 1e-6)
