@@ -47,7 +47,7 @@ INT_FIELDS = (
     "lp_parent",           # (nlp,) parent particle, -1 at a limb root (fixed to the spine)
     "lp_con",              # (nlp,) constraint to the parent particle, -1 at a limb root
     "lp_attach",           # (nlp,) spine body the limb hangs off
-    "lp_mode",             # (nlp,) orientation rebuild: 0 one axis, 1 two axes, 2 rigid on parent
+    "lp_mode",             # (nlp,) orientation rebuild: 0 one axis, 1 two axes, 2 rigid on parent, 3 tip (no body)
     "lp_c1", "lp_c2",      # (nlp,) child particles giving the axes (-1 if unused)
     "lp_goal",             # (nlp,) goal slot of the particle's body, -1 if none
     "lc_a", "lc_b",        # (nlc,) limb constraints, leaves inward
@@ -57,7 +57,8 @@ INT_FIELDS = (
     "ag_goal",             # goal slots an aim group aims at
     "goal_body",           # (ngoal,) bodies with goals in this plan
     "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
-    "goal_lp",             # (ngoal,) limb-phase particle the goal pins, -1 if none
+    "goal_lp",             # (ngoal,) limb-phase particle the position goal pins (a tip or the joint), -1 if none
+    "goal_lpj",            # (ngoal,) the goal body's joint particle when goal_lp is its tip, else -1
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, the root (0) for a delegated one, else -1
     "scratch_layout",      # (9,) first row of each scratch block (see ``_scratch_views``)
 )
@@ -430,7 +431,7 @@ def unpack(pi, pf, pf3, pf4):
         _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
         _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
-        _i(pi, 43), _i(pi, 44), _i(pi, 45),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46),
         # floats
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
         _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7),
@@ -767,7 +768,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
                 continue
             pc = v3(lp_pos, P.goal_lp[gi])
             cur = vadd(cur, vscale(pc, w))
-            tgt = vadd(tgt, vscale(vlerp(pc, v3(goal_joint, gi), w), w))
+            tgt = vadd(tgt, vscale(vlerp(pc, _limb_target(P, goal_pos, goal_joint, gi), w), w))
             wsum += w
         if wsum <= 0.0:
             continue
@@ -786,32 +787,48 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             y = vadd(y, vscale(ghat, stretch * vdot(y, ghat)))
             set3(lp_pos, m, vadd(piv, y))
     # Goal particles at their goals (weighted), then the constraint iterations.
-    _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]), int(prm[P_LIMB_INNER]))
+    _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
+                  int(prm[P_LIMB_INNER]))
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
-    # The goal bodies' joint targets were converted from an estimated rotation (4.3.1);
-    # now the rotation is known: convert again and, if that moved a target, let a few
-    # more iterations follow it from the current pose (a fixed-point iteration on the
-    # targets; it only runs for goals whose rotation is not fully given).
-    for _round in range(3):
-        moved = 0.0
-        for gi in range(P.goal_body.shape[0]):
-            i = P.goal_lp[gi]
-            if i < 0 or P.lp_parent[i] < 0:
-                continue
-            b = P.goal_body[gi]
-            if goal_pos_w[b] <= 0.0:
-                continue
-            target = vsub(v3(goal_pos, b), qrot(q4(out_rot, b), v3(P.b_joint_offset, b)))
-            moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
-            set3(goal_joint, gi, target)
-        if moved <= 1e-7:
-            break
-        _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, 3, int(prm[P_LIMB_INNER]))
-        _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+
+
+@njit(cache=True, inline="always")
+def _limb_target(P, goal_pos, goal_joint, gi):
+    """Where goal ``gi`` pins its limb particle: a tip particle (at the body's origin) goes
+    to the position goal itself, a joint particle to the goal converted to the joint."""
+    if P.goal_lpj[gi] >= 0:
+        return v3(goal_pos, P.goal_body[gi])
+    return v3(goal_joint, gi)
 
 
 @njit(cache=True)
-def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
+def _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, first):
+    """Pull goal particles toward their targets by the goal weight (the first time also
+    making them heavy in proportion). A body with a tip particle has its tip pinned at
+    the position goal and, as far as it has a rotation goal, its joint at the 6-DOF goal
+    converted to the joint (4.3.1); without a rotation goal the joint is free and the tip
+    decides the body's direction, so position-only goals are met exactly."""
+    for gi in range(P.goal_body.shape[0]):
+        i = P.goal_lp[gi]
+        if i < 0 or P.lp_parent[i] < 0:
+            continue
+        b = P.goal_body[gi]
+        w = min(max(goal_pos_w[b], 0.0), 1.0)
+        if w > 0.0 and (first or w < 1.0):
+            set3(lp_pos, i, vlerp(v3(lp_pos, i), _limb_target(P, goal_pos, goal_joint, gi), w))
+        if first:
+            lp_inv[i] = 1.0 - w
+        j = P.goal_lpj[gi]
+        if j >= 0 and P.lp_parent[j] >= 0:
+            wj = w * min(max(goal_rot_w[b], 0.0), 1.0)
+            if wj > 0.0 and (first or wj < 1.0):
+                set3(lp_pos, j, vlerp(v3(lp_pos, j), v3(goal_joint, gi), wj))
+            if first:
+                lp_inv[j] = 1.0 - wj
+
+
+@njit(cache=True)
+def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
     constraints leaves inward, and an outward projection of every particle to its allowed
     stretch from its parent. The inward sweeps carry the goal error toward the spine; the
@@ -819,13 +836,7 @@ def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
     (the same projection ends the solve, section 4.3.3 "Reconstruction")."""
     prm = P.params
     slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
-    for gi in range(P.goal_body.shape[0]):
-        i = P.goal_lp[gi]
-        if i < 0 or P.lp_parent[i] < 0:
-            continue
-        w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-        set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
-        lp_inv[i] = 1.0 - w
+    _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, True)
     nlc = P.lc_a.shape[0]
     nlp = P.lp_body.shape[0]
     for _outer in range(n_outer):
@@ -834,21 +845,12 @@ def _limb_iterate(P, goal_pos_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
                 c = P.lp_con[i]
                 if c >= 0:
                     project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
-            for gi in range(P.goal_body.shape[0]):
-                i = P.goal_lp[gi]
-                if i >= 0 and P.lp_parent[i] >= 0:
-                    w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-                    set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+            _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, True)
         for _inner in range(n_inner):
             for c in range(nlc):
                 relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
                                  P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], 1.0, slope, band, width)
-            for gi in range(P.goal_body.shape[0]):
-                i = P.goal_lp[gi]
-                if i >= 0 and P.lp_parent[i] >= 0:
-                    w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-                    if 0.0 < w < 1.0:
-                        set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(goal_joint, gi), w))
+            _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, False)
 
 
 @njit(cache=True)
@@ -864,10 +866,12 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
             project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
     # Orientations, parents first.
     for i in range(nlp):
+        mode = P.lp_mode[i]
+        if mode == 3:
+            continue
         b = P.lp_body[i]
         s = P.lp_attach[i]
         rest_rot = qmul(q4(out_rot, s), q4(P.lp_rot_local, i))
-        mode = P.lp_mode[i]
         if mode == 2:
             rot = qmul(q4(out_rot, P.b_parent[b]), q4(P.b_local_rot, b))
         else:
@@ -1034,7 +1038,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 46 + 39
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 47 + 39
 
 
 _check_layout()

@@ -436,6 +436,7 @@ def _build(c, goals: list[int], prm: IKParams):
     # -- limb phase (4.3.3) --------------------------------------------------------------
     lp = []  # dicts
     lp_of: dict[int, int] = {}
+    tip_of: dict[int, int] = {}
     lc = []
     ag_pivot, ag_moved, ag_goal = [], [], []
     for li in range(c.nlimb):
@@ -464,19 +465,36 @@ def _build(c, goals: list[int], prm: IKParams):
                     lc.append(dict(a=lp_of[kids[x]], b=lp_of[kids[y]], len=L, inva=1.0, invb=1.0,
                                    depth=int(c.body_depth[kids[x]])))
 
-        def goals_below(b, include_self):
-            lo = b if include_self else b + 1
-            return [slot_of[h] for h in range(lo, int(c.body_subtree_end[b])) if h in slot_of]
+        # Tips: a leaf goal body whose origin is off its joint gets a particle at its
+        # origin, rigidly tied to its joint. The position goal pins the tip; the joint is
+        # pinned only as far as a rotation goal fixes where it must be. So a goal is met
+        # at the body's origin exactly, with or without a rotation goal.
+        for b in bodies:
+            off = float(np.linalg.norm(c.body_joint_offset[b]))
+            if b not in slot_of or lp[lp_of[b]]["kids"] or off <= 1e-9 + 1e-4 * float(c.body_limb_length[b]):
+                continue
+            tip_of[b] = len(lp)
+            lp.append(dict(body=b, parent=lp_of[b], con=len(lc), attach=s, kids=[], tip=True,
+                           local=_qrot(qs_inv, rr_pos[b] - rr_pos[s]), rot_local=_qmul(qs_inv, rr_rot[b]), goal=-1))
+            lc.append(dict(a=lp_of[b], b=tip_of[b], len=off, inva=0.0 if b == r else 1.0, invb=1.0,
+                           depth=int(c.body_depth[b]) + 1, plo=1.0, phi=1.0))
+
+        def goals_below(b):
+            end = int(c.body_subtree_end[b])
+            return ([slot_of[h] for h in range(b + 1, end) if h in slot_of]
+                    + ([slot_of[b]] if b in tip_of else []))
 
         def moved_below(b):
-            return [lp_of[h] for h in range(b + 1, int(c.body_subtree_end[b])) if h in lp_of]
+            end = int(c.body_subtree_end[b])
+            return ([lp_of[h] for h in range(b + 1, end) if h in lp_of]
+                    + [tip_of[h] for h in range(b, end) if h in tip_of])
 
-        groups = [(r, goals_below(r, False), moved_below(r))]
+        groups = [(r, goals_below(r), moved_below(r))]
         for b in bodies:
             kids = lp[lp_of[b]]["kids"]
             if len(kids) >= 2:
                 for k in kids:
-                    groups.append((k, goals_below(k, False), moved_below(k)))
+                    groups.append((k, goals_below(k), moved_below(k)))
         for pivot, gl, mv in groups:
             if gl and mv:
                 ag_pivot.append(lp_of[pivot])
@@ -491,7 +509,7 @@ def _build(c, goals: list[int], prm: IKParams):
     for i, P in enumerate(lp):
         P["init"] = P["local"].copy()
     for i, P in enumerate(lp):
-        if P["parent"] < 0 or len(P["kids"]) != 1:
+        if P["parent"] < 0 or len(P["kids"]) != 1 or P.get("tip"):
             continue
         b = P["body"]
         pp, kk = lp[P["parent"]]["body"], P["kids"][0]
@@ -514,9 +532,14 @@ def _build(c, goals: list[int], prm: IKParams):
 
     for P in lp:
         kids = P["kids"]
-        P["mode"] = 2 if not kids else (0 if len(kids) == 1 else 1)
-        P["c1"] = lp_of[kids[0]] if kids else -1
-        P["c2"] = lp_of[kids[1]] if len(kids) > 1 else -1
+        if P.get("tip"):
+            P["mode"], P["c1"], P["c2"] = 3, -1, -1
+        elif not kids and P["body"] in tip_of:
+            P["mode"], P["c1"], P["c2"] = 0, tip_of[P["body"]], -1
+        else:
+            P["mode"] = 2 if not kids else (0 if len(kids) == 1 else 1)
+            P["c1"] = lp_of[kids[0]] if kids else -1
+            P["c2"] = lp_of[kids[1]] if len(kids) > 1 else -1
 
     lc_order = sorted(range(len(lc)), key=lambda i: -lc[i]["depth"])
     lc_remap = {old: new for new, old in enumerate(lc_order)}
@@ -525,7 +548,8 @@ def _build(c, goals: list[int], prm: IKParams):
         if P["con"] >= 0:
             P["con"] = lc_remap[P["con"]]
 
-    goal_lp = np.array([lp_of.get(g, -1) for g in goals], np.int32)
+    goal_lp = np.array([tip_of.get(g, lp_of.get(g, -1)) for g in goals], np.int32)
+    goal_lpj = np.array([lp_of[g] if g in tip_of else -1 for g in goals], np.int32)
     rg_body = sorted(delegated)
 
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
@@ -557,7 +581,7 @@ def _build(c, goals: list[int], prm: IKParams):
         ag_goal_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_goal])[:-1]] if ag_goal else []),
         ag_goal_num=i32([len(m) for m in ag_goal]),
         ag_moved=i32([x for m in ag_moved for x in m]), ag_goal=i32([x for m in ag_goal for x in m]),
-        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_limb_root=i32(goal_limb_root),
+        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_lpj=goal_lpj, goal_limb_root=i32(goal_limb_root),
         scratch_layout=layout,
         b_rootrel_rot=f64(rr_rot, 4), b_rootrel_pos=f64(rr_pos, 3), b_rootrel_joint=f64(rr_joint, 3),
         b_joint_offset=f64(c.body_joint_offset, 3), b_local_rot=f64(c.body_local_rot, 4),
@@ -576,7 +600,8 @@ def _build(c, goals: list[int], prm: IKParams):
         lp_local=f64([x["local"] for x in lp], 3), lp_init_local=f64([x["init"] for x in lp], 3),
         lp_rot_local=f64([x["rot_local"] for x in lp], 4),
         lc_len=f64([x["len"] for x in lc], 1), lc_lo=f64([1.0] * len(lc), 1), lc_hi=f64([1.0] * len(lc), 1),
-        lc_plo=f64([prm.limb_shrink] * len(lc), 1), lc_phi=f64([prm.limb_stretch] * len(lc), 1),
+        lc_plo=f64([x.get("plo", prm.limb_shrink) for x in lc], 1),
+        lc_phi=f64([x.get("phi", prm.limb_stretch) for x in lc], 1),
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         params=prm.vector(),
     )

@@ -1,0 +1,344 @@
+"""The Particle IK solver's four objectives (Hecker et al. 2008, section 4.3), measured on
+the library creatures and on random creatures (engine.model.random):
+
+1. accuracy in the workspace: goals within 95% of a limb's reach are met within 1% of
+   the limb's length;
+2. graceful failure: out-of-reach goals point the limb at them within its stretch limit,
+   conflicting goals settle between, implausible goals fold nothing;
+3. path independence: the pose depends only on the current goals (to 1e-9);
+4. continuity: a goal swept across and beyond the workspace gives a smooth pose, no
+   elbow/knee flips and no pop as reach approaches 1.
+"""
+
+from __future__ import annotations
+
+import glob
+import math
+import os
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import engine
+from engine.ik import IKSolver, plan_for
+from engine.ik import _kernels as K
+from engine.ik.testing import arm_chain_creature, humanoid_creature, joint_world, random_reachable_pose
+from engine.model import build_creature
+from engine.model.caps import FOOT, GRASPER, HEAD, MOUTH
+from engine.model.random import random_creature_def
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LIBRARY = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))
+
+
+def random_creature(seed):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return build_creature(random_creature_def(seed))
+
+
+def goal_bodies(c):
+    """The bodies animations pose: leaf graspers, feet, heads and mouths."""
+    return [b for b in range(1, c.nbody)
+            if not c.body_is_spine[b] and c.body_child_num[b] == 0
+            and int(c.body_caps[b]) & (GRASPER | FOOT | HEAD | MOUTH)]
+
+
+def limb_goals(c, s):
+    return [g for g in goal_bodies(c) if c.body_limb_length[g] > 0 and g not in s.plan.delegated]
+
+
+def rest_root(c):
+    return c.body_rest_pos[0].copy(), c.body_rest_rot[0].copy()
+
+
+def accuracy_worst(c, rng, trials):
+    """Worst error / limb length over goals within 95% of reach (goals read back from a
+    random forward-kinematic pose, so they are reachable together)."""
+    gb = goal_bodies(c)
+    if not gb:
+        return 0.0, 0
+    s = IKSolver(c, gb)
+    worst, n = 0.0, 0
+    for t in range(trials):
+        pos, rot, _ = random_reachable_pose(c, rng, max_bend=0.6, rigid=set(s.plan.delegated))
+        s.goals.clear()
+        for g in gb:
+            s.goals.set(g, pos=pos[g], rot=rot[g], rot_weight=1.0 if t % 2 == 0 else 0.0)
+        s.solve(*rest_root(c))
+        assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
+        for g in limb_goals(c, s):
+            L = c.body_limb_length[g]
+            lr = c.limb_root[c.body_limb[g]]
+            if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
+                continue
+            worst = max(worst, float(np.linalg.norm(s.out_pos[g] - pos[g]) / L))
+            n += 1
+    return worst, n
+
+
+# -- 1. accuracy ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("path", LIBRARY, ids=[os.path.basename(p) for p in LIBRARY])
+def test_accuracy_library(path):
+    c = engine.load_creature(path)
+    worst, n = accuracy_worst(c, np.random.default_rng(1), 6)
+    assert worst <= 0.01, f"{c.name}: worst goal error {worst:.4f} of limb length"
+
+
+def test_accuracy_200_random_creatures():
+    rng = np.random.default_rng(2)
+    checked = 0
+    for seed in range(200):
+        c = random_creature(seed)
+        worst, n = accuracy_worst(c, rng, 2)
+        checked += n
+        assert worst <= 0.01, f"random creature {seed}: worst goal error {worst:.4f} of limb length"
+    assert checked > 400
+
+
+# -- 2. graceful failure ----------------------------------------------------------------
+
+
+def limb_lengths_ok(c, s):
+    """Every limb constraint of the plan within its projection range (no hyperextension,
+    no collapse) and every spine particle within the spine's range."""
+    a = s.plan.arrays
+    p = s.plan.params
+    for i in range(a.lp_body.shape[0]):
+        con = a.lp_con[i]
+        if con < 0:
+            continue
+        b, pb = a.lp_body[i], a.lp_body[a.lp_parent[i]]
+        L = np.linalg.norm(joint_world(c, s.out_pos, s.out_rot, b) - joint_world(c, s.out_pos, s.out_rot, pb))
+        rest = a.lc_len[con]
+        assert p.limb_shrink * rest - 1e-9 <= L <= p.limb_stretch * rest + 1e-9
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 10_000), direction_seed=st.integers(0, 1000))
+def test_out_of_reach_points_at_goal_within_stretch(seed, direction_seed):
+    c = random_creature(seed)
+    gb = goal_bodies(c)
+    if not gb:
+        return
+    s = IKSolver(c, gb)
+    rng = np.random.default_rng(direction_seed)
+    rp, rr = rest_root(c)
+    goals = {}
+    for g in limb_goals(c, s):
+        lr = c.limb_root[c.body_limb[g]]
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        goals[g] = c.body_joint[lr] + d * 3.0 * c.body_limb_length[g]
+        s.goals.set(g, pos=goals[g])
+    s.solve(rp, rr)
+    assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies])) and np.all(np.isfinite(s.out_rot[s.plan.ik_bodies]))
+    limb_lengths_ok(c, s)
+    for g, goal in goals.items():
+        lr = c.limb_root[c.body_limb[g]]
+        attach = joint_world(c, s.out_pos, s.out_rot, lr)
+        tip = s.out_pos[g]
+        u, v = tip - attach, goal - attach
+        cosang = u @ v / (np.linalg.norm(u) * np.linalg.norm(v))
+        assert cosang > math.cos(math.radians(15.0)), f"{c.body_names[g]} does not point at its goal"
+
+
+def test_conflicting_goals_settle_between():
+    """Both hands pulled 3 m apart sideways: the arms stretch within limits and the chest
+    stays between them (the spine phase splits the pull)."""
+    c = humanoid_creature()
+    s = IKSolver(c, ["hand_l", "hand_r"])
+    rp, rr = rest_root(c)
+    s.goals.set(c.body("hand_l"), pos=(0.0, 1.5, 1.4))
+    s.goals.set(c.body("hand_r"), pos=(0.0, -1.5, 1.4))
+    s.solve(rp, rr)
+    assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
+    limb_lengths_ok(c, s)
+    chest = c.body("chest")
+    assert abs(s.out_pos[chest][1]) < 0.02  # symmetric pull: no drift to one side
+    # One-sided conflict: a hand goal and a foot goal far apart upward and downward.
+    s = IKSolver(c, ["hand_l", "foot_l"])
+    s.goals.set(c.body("hand_l"), pos=(0.0, 0.3, 3.5))
+    s.goals.set(c.body("foot_l"), pos=(0.0, 0.1, -2.0))
+    s.solve(rp, rr)
+    assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
+    limb_lengths_ok(c, s)
+
+
+def spine_fold(c, s):
+    """Largest change, from rest, of the relative rotation between neighbouring spine bodies."""
+    worst = 0.0
+    chain = [b for b in c.spine_chain if s.plan.has_ik[b]]
+    for a, b in zip(chain[:-1], chain[1:]):
+        rel = K.qmul(K.qconj(tuple(s.out_rot[a])), tuple(s.out_rot[b]))
+        rel0 = K.qmul(K.qconj(tuple(c.body_rest_rot[a])), tuple(c.body_rest_rot[b]))
+        d = abs(float(np.dot(rel, rel0)))
+        worst = max(worst, 2.0 * math.acos(min(1.0, d)))
+    return worst
+
+
+@pytest.mark.parametrize("name", ["humanoid", "dog", "spider", "longspine", "snake"])
+def test_implausible_goals_do_not_fold(name):
+    """Goals inside the body and behind the back: finite, limbs within their stretch
+    range, and no spine joint folded by more than 90 degrees over its rest bend."""
+    c = engine.load_creature(os.path.join(ROOT, "creatures", f"{name}.yaml"))
+    gb = goal_bodies(c)
+    s = IKSolver(c, gb)
+    rp, rr = rest_root(c)
+    size = float(np.max(c.size))
+    for case in ("inside", "behind"):
+        s.goals.clear()
+        for g in gb:
+            if case == "inside":
+                goal = c.body_rest_pos[c.body_spine_attach[g]]
+            else:
+                goal = c.body_rest_pos[g] + np.array([-0.8 * size, 0.0, -0.3 * size])
+            s.goals.set(g, pos=goal)
+        s.solve(rp, rr)
+        assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
+        limb_lengths_ok(c, s)
+        assert spine_fold(c, s) < math.radians(90.0), f"{name} folds its spine ({case})"
+
+
+# -- 3. path independence ---------------------------------------------------------------
+
+
+@settings(max_examples=4, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_path_independence(seed):
+    c = random_creature(seed)
+    gb = goal_bodies(c)
+    if not gb:
+        return
+    s = IKSolver(c, gb)
+    rng = np.random.default_rng(seed)
+    rp, rr = rest_root(c)
+
+    def set_goals(pos, rot):
+        s.goals.clear()
+        for g in gb:
+            s.goals.set(g, pos=pos[g], rot=rot[g], rot_weight=0.5)
+
+    pos, rot, _ = random_reachable_pose(c, rng, max_bend=0.8)
+    set_goals(pos, rot)
+    s.solve(rp, rr)
+    fresh = s.out_pos.copy(), s.out_rot.copy()
+    size = float(np.max(c.size))
+    for _ in range(1000):
+        p2, r2, _ = random_reachable_pose(c, rng, max_bend=1.2)
+        p2 = p2 + rng.normal(scale=0.3 * size, size=p2.shape)  # in and out of reach
+        set_goals(p2, r2)
+        s.solve(rp + rng.normal(scale=0.1, size=3), rr)
+    set_goals(pos, rot)
+    s.solve(rp, rr)
+    ik = s.plan.ik_bodies
+    assert np.max(np.abs(s.out_pos[ik] - fresh[0][ik])) <= 1e-9
+    assert np.max(np.abs(s.out_rot[ik] - fresh[1][ik])) <= 1e-9
+
+
+# -- 4. continuity ----------------------------------------------------------------------
+
+
+def sweep(c, s, body, start, end, steps=400):
+    """Solve along a straight goal path; per-step rotation change of every IK body and the
+    bend normals of every 3-joint window of ``body``'s chain."""
+    rp, rr = rest_root(c)
+    chain = []
+    b = body
+    while not c.body_is_spine[b]:
+        chain.append(b)
+        b = c.body_parent[b]
+    chain.reverse()  # limb root ... body
+    prev_rot = None
+    max_step = 0.0
+    normals = []
+    for k in range(steps + 1):
+        goal = start + (end - start) * k / steps
+        s.goals.set(body, pos=goal)
+        s.solve(rp, rr)
+        rot = s.out_rot[s.plan.ik_bodies].copy()
+        if prev_rot is not None:
+            d = np.clip(np.abs(np.sum(rot * prev_rot, axis=1)), 0.0, 1.0)
+            max_step = max(max_step, float(np.max(2.0 * np.arccos(d))))
+        prev_rot = rot
+        joints = [joint_world(c, s.out_pos, s.out_rot, x) for x in chain]
+        ns = []
+        for a, m, e in zip(joints[:-2], joints[1:-1], joints[2:]):
+            u, v = m - a, e - m
+            n = np.cross(u, v)
+            ns.append(n / (np.linalg.norm(u) * np.linalg.norm(v) + 1e-300))
+        normals.append(ns)
+    return max_step, normals
+
+
+def assert_no_flip(normals, min_bend=0.05):
+    for k in range(len(normals) - 1):
+        for n0, n1 in zip(normals[k], normals[k + 1]):
+            if np.linalg.norm(n0) > min_bend and np.linalg.norm(n1) > min_bend:
+                assert n0 @ n1 > 0.0, f"bend side flipped at step {k}"
+
+
+@pytest.mark.parametrize("limb", ["hand_l", "foot_r"])
+def test_sweep_humanoid_limb_is_smooth(limb):
+    c = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
+    s = IKSolver(c, [limb])
+    b = c.body(limb)
+    lr = c.limb_root[c.body_limb[b]]
+    attach = c.body_joint[lr]
+    reach = c.body_limb_length[b]
+    rest = c.body_rest_pos[b]
+    d = (rest - attach) / np.linalg.norm(rest - attach)
+    # From close to the attachment, through full reach, to 1.6x reach, with a sideways drift.
+    side = np.cross(d, [1.0, 0.0, 0.0])
+    start = attach + 0.3 * reach * d + 0.1 * reach * side
+    end = attach + 1.6 * reach * d - 0.1 * reach * side
+    max_step, normals = sweep(c, s, b, start, end)
+    # 400 steps over ~1.3 reach: a smooth pose turns far less than 0.1 rad per step;
+    # a knee pop near full reach would be a jump of several tenths.
+    assert max_step < 0.1, f"largest rotation step {max_step:.3f} rad"
+    assert_no_flip(normals)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 10_000), direction_seed=st.integers(0, 1000))
+def test_sweep_random_creature_is_smooth(seed, direction_seed):
+    c = random_creature(seed)
+    gb = [g for g in goal_bodies(c) if c.body_limb_length[g] > 0]
+    if not gb:
+        return
+    rng = np.random.default_rng(direction_seed)
+    body = gb[int(rng.integers(len(gb)))]
+    s = IKSolver(c, [body])
+    if body in s.plan.delegated:
+        return
+    lr = c.limb_root[c.body_limb[body]]
+    attach = c.body_joint[lr]
+    reach = c.body_limb_length[body]
+    d = c.body_joint[body] - attach
+    d /= np.linalg.norm(d)
+    side = rng.normal(size=3)
+    side -= (side @ d) * d
+    side /= np.linalg.norm(side)
+    start = attach + 0.4 * reach * d + 0.2 * reach * side
+    end = attach + 1.5 * reach * d - 0.2 * reach * side
+    max_step, normals = sweep(c, s, body, start, end)
+    assert max_step < 0.15, f"largest rotation step {max_step:.3f} rad"
+    assert_no_flip(normals)
+
+
+def test_six_joint_chain_reaches_and_stays_smooth():
+    c = arm_chain_creature(6)
+    hand = c.nbody - 1
+    s = IKSolver(c, [hand])
+    attach = c.body_joint[1]
+    reach = c.body_limb_length[hand]
+    start = attach + np.array([0.3, 0.4, 0.2]) * reach / np.linalg.norm([0.3, 0.4, 0.2]) * 0.3
+    end = attach + np.array([1.0, -0.2, 0.3]) / np.linalg.norm([1.0, -0.2, 0.3]) * 1.4 * reach
+    max_step, normals = sweep(c, s, hand, start, end)
+    assert max_step < 0.1
+    assert_no_flip(normals)
