@@ -34,9 +34,15 @@ sys.path.insert(0, ROOT)
 
 import engine  # noqa: E402
 from engine.physics import (  # noqa: E402
-    BodySpec, PhysicsState, build_model, energy, joint_separation, model_from_creatures, step,
+    BodySpec,
+    PhysicsState,
+    build_model,
+    energy,
+    joint_separation,
+    model_from_creatures,
+    step,
 )
-from engine.physics.model import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE  # noqa: E402
+from engine.physics.model import SHAPE_BOX, SHAPE_SPHERE  # noqa: E402
 
 DT = 0.0005
 ID = np.array([1.0, 0.0, 0.0, 0.0])
@@ -82,7 +88,7 @@ def mjcf_from_model(model, pos, rot, *, friction=1.0, floor=True, timestep=DT) -
 
     def geom(b):
         shape, size = model.body_shape[b], model.body_size[b]
-        common = 'contype="1" conaffinity="2" condim="3" friction="%g 0.005 0.0001"' % friction
+        common = f'contype="1" conaffinity="2" condim="3" friction="{friction:g} 0.005 0.0001"'
         if shape == SHAPE_SPHERE:
             return f'<geom type="sphere" size="{size[0]:.17g}" {common}/>'
         if shape == SHAPE_BOX:

@@ -23,9 +23,21 @@ from hypothesis import strategies as st
 import engine
 from engine.model import creature_from_text
 from engine.physics import (
-    BodySpec, ContactSettings, CreatureBodyOptions, PhysicsError, PhysicsState, Terrain, WorldSettings,
-    build_model, energy, joint_separation, model_from_creatures, servo_targets_from_pose, shape_mass_inertia,
-    state_from_kinematic, step,
+    BodySpec,
+    ContactSettings,
+    CreatureBodyOptions,
+    PhysicsError,
+    PhysicsState,
+    Terrain,
+    WorldSettings,
+    build_model,
+    energy,
+    joint_separation,
+    model_from_creatures,
+    servo_targets_from_pose,
+    shape_mass_inertia,
+    state_from_kinematic,
+    step,
 )
 from engine.physics.model import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
 

@@ -19,8 +19,17 @@ import pytest
 from engine.io import load_bvh, parse_bvh_text
 from engine.response._kernels import welford_update
 from engine.response.tracking import (
-    MODES, ControlOptions, MocapRig, TrackingError, TrackingParams, VelocityScale, central_difference,
-    central_difference_weights, quat_to_euler, track, tune,
+    MODES,
+    ControlOptions,
+    MocapRig,
+    TrackingError,
+    TrackingParams,
+    VelocityScale,
+    central_difference,
+    central_difference_weights,
+    quat_to_euler,
+    track,
+    tune,
 )
 
 WALK = "/work/shared/data/mocap/cmu_02_01_walk.bvh"
@@ -154,7 +163,7 @@ def test_euler_round_trip_through_the_bvh_reader(order):
     angles = np.degrees(quat_to_euler(q, order))
     chans = " ".join(f"{a}rotation" for a in order)
     text = ("HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 3 " + chans + "\n End Site\n {\n OFFSET 0 1 0\n }\n}\n"
-            f"MOTION\nFrames: 50\nFrame Time: 0.01\n" + "".join(" ".join(repr(float(v)) for v in row) + "\n"
+            "MOTION\nFrames: 50\nFrame Time: 0.01\n" + "".join(" ".join(repr(float(v)) for v in row) + "\n"
                                                                 for row in angles))
     back = parse_bvh_text(text).local_rotations()[:, 0]
     dots = np.abs(np.sum(back * q, axis=1))

@@ -9,12 +9,29 @@ with a terrain height function (Zordan et al. 2005 section 5; Wilke & Semwal).
 """
 
 from engine.physics.model import (
-    DEFAULT_FOOT, DEFAULT_GROUND, DEFAULT_PAIR, BodySpec, ContactSettings, CreatureBodyOptions, PhysicsError,
-    PhysicsModel, SimulationDiverged, Terrain, WorldSettings, build_model, model_from_creatures,
+    DEFAULT_FOOT,
+    DEFAULT_GROUND,
+    DEFAULT_PAIR,
+    BodySpec,
+    ContactSettings,
+    CreatureBodyOptions,
+    PhysicsError,
+    PhysicsModel,
+    SimulationDiverged,
+    Terrain,
+    WorldSettings,
+    build_model,
+    model_from_creatures,
     shape_mass_inertia,
 )
 from engine.physics.world import (
-    PhysicsState, energy, joint_separation, rotvec_between, servo_targets_from_pose, state_from_kinematic, step,
+    PhysicsState,
+    energy,
+    joint_separation,
+    rotvec_between,
+    servo_targets_from_pose,
+    state_from_kinematic,
+    step,
 )
 
 __all__ = [

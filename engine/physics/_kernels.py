@@ -540,7 +540,6 @@ def _prepare(m, s, h):
             t12 = rz * i02 - rx * i22
             t20 = -ry * i00 + rx * i01
             t21 = -ry * i01 + rx * i11
-            t22 = -ry * i02 + rx * i12
             # (T S^T)[r][c] = sum_k T[r][k] S[c][k]
             k00 += -t01 * rz + t02 * ry
             k01 += t00 * rz - t02 * rx
@@ -1031,7 +1030,6 @@ def _solve_points_direct(m, s, h, use_bias):
                 x[i, 4] = -(s.body_angvel[b, 1] - s.body_angvel[a, 1] - twy + br * ey + g * ly)
                 x[i, 5] = -(s.body_angvel[b, 2] - s.body_angvel[a, 2] - twz + br * ez + g * lz)
     # forward (leaves first): x_parent -= L_i^T x_i; keep z_i = D_i^-1 x_i
-    H = s.node_H
     z = s.node_z
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]

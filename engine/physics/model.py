@@ -591,7 +591,7 @@ def model_from_creatures(creatures, *, options=None, terrain: Terrain | None = N
     if len(options) != len(creatures):
         raise PhysicsError("give one CreatureBodyOptions per creature", field="options")
     specs: list[BodySpec] = []
-    for k, (c, opts) in enumerate(zip(creatures, options)):
+    for k, (c, opts) in enumerate(zip(creatures, options, strict=True)):
         prefix = f"{k}:" if len(creatures) > 1 else ""
         sub = _creature_specs(c, k, opts, prefix)
         base = len(specs)
