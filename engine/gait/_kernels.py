@@ -52,7 +52,7 @@ def _predict(px, py, yaw, vx, vy, omega, t):
 @njit(cache=True)
 def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
-              step_progress, step_prev_u, step_parked, foot_body, foot_neutral, foot_world, foot_lift, foot_yaw,
+              step_progress, step_prev_u, step_parked, step_lift_u, foot_body, foot_neutral, foot_world, foot_lift, foot_yaw,
               foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
     """Stage 1 of a frame (see the module docstring).
 
@@ -62,7 +62,8 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
     group_* (G,)   cycle rate (cycles/s), phase (in/out), duty factor, allowed half-sweep (m),
                    parking tolerance (m); path (G, NS, 3) the normalized flight path
     step_* (S,)    group, trigger, duty scale, foot range, state/progress/previous cycle
-                   position/parked (in/out)
+                   position/parked/cycle position at lift-off (in/out); a flight always ends at
+                   the end of the stepper's cycle, so a rescue step does not drift out of phase
     foot_* (F, .)  body, rest spot (character space), world position, lift-off position,
                    world yaw, lift-off yaw, touchdown target (x, y written here), target yaw
     goal_pw (nbody,) the blended animation goal weights (a foot with weight > 0 is owned)
@@ -94,6 +95,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
             step_state[s] = FLIGHT
             step_progress[s] = 0.0
             step_parked[s] = 0
+            step_lift_u[s] = u
             for f in range(a0, a1):
                 for j in range(3):
                     foot_lift[f, j] = foot_world[f, j]
@@ -118,12 +120,13 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 step_state[s] = FLIGHT
                 step_progress[s] = 0.0
                 step_parked[s] = 0
+                step_lift_u[s] = min(u, duty) if crossed else u
                 for f in range(a0, a1):
                     for j in range(3):
                         foot_lift[f, j] = foot_world[f, j]
                     foot_lift_yaw[f] = foot_yaw[f]
         elif step_state[s] == FLIGHT:
-            rate = group_rate[g] / (1.0 - duty) if group_rate[g] > 0.0 else 0.0
+            rate = group_rate[g] / max(1.0 - step_lift_u[s], 0.1) if group_rate[g] > 0.0 else 0.0
             if rate <= 0.0:
                 rate = 1.0
             step_progress[s] += rate * dt
@@ -134,7 +137,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
             # touchdown target: the rest spot under the placement predicted for the middle
             # of the coming stance, so the stance sweeps evenly around the rest spot
             rate = group_rate[g] if group_rate[g] > 0.0 else 1.0
-            t_left = (1.0 - step_progress[s]) * (1.0 - duty) / rate
+            t_left = (1.0 - step_progress[s]) * max(1.0 - step_lift_u[s], 0.1) / rate
             t_ahead = t_left + 0.5 * duty / rate
             qx, qy, qyaw = _predict(px, py, yaw, vel[0], vel[1], vel[2], t_ahead)
             if idle:
@@ -167,11 +170,39 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
+@njit(cache=True, inline="always")
+def _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw):
+    """Foot joint in character space: the foot's position there plus its rest joint
+    offset turned by the foot's yaw relative to the heading."""
+    dx = foot_world[f, 0] - place_pos[0]
+    dy = foot_world[f, 1] - place_pos[1]
+    px = cy * dx + sy * dy
+    py = -sy * dx + cy * dy
+    pz = foot_world[f, 2] - place_pos[2]
+    a = foot_yaw[f] - yaw
+    ca, sa = math.cos(a), math.sin(a)
+    jx, jy = foot_jointrel[f, 0], foot_jointrel[f, 1]
+    return px + ca * jx - sa * jy, py + sa * jx + ca * jy, pz + foot_jointrel[f, 2]
+
+
+@njit(cache=True, inline="always")
+def _hip(root_pos, root_rot, foot_hip, f):
+    """Hip joint in character space: the root-relative hip point carried by the root."""
+    w, x, y, z = root_rot[0], root_rot[1], root_rot[2], root_rot[3]
+    vx, vy, vz = foot_hip[f, 0], foot_hip[f, 1], foot_hip[f, 2]
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (root_pos[0] + vx + w * tx + (y * tz - z * ty), root_pos[1] + vy + w * ty + (z * tx - x * tz),
+            root_pos[2] + vz + w * tz + (x * ty - y * tx))
+
+
 @njit(cache=True)
-def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, step_group, step_side,
-              step_lift_scale, step_foot_adr, step_foot_num, step_state, step_progress, foot_body, foot_offset,
-              foot_rest_rot, foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw,
-              foot_tilt, root_dq, root_dpos, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, group_duty, step_group, step_side,
+              step_lift_scale, step_duty_scale, step_foot_adr, step_foot_num, step_state, step_progress, step_u,
+              foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_world,
+              foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, foot_tilt, root_dq, root_dpos,
+              root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
     """Stage 2 of a frame (see the module docstring).
 
     place_pos (3,), yaw        this frame's placement (world)
@@ -179,6 +210,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
     foot_tilt (4,)             slope rotation of planted feet, character space
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
+    foot_hip/jointrel/chain/rigid  see ``engine.gait.rig`` (compass legs)
     root_pos, root_rot, goal_* in/out (character space)
     """
     nfoot = foot_body.shape[0]
@@ -234,6 +266,40 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     q = _qmul(root_dq[0], root_dq[1], root_dq[2], root_dq[3], root_rot[0], root_rot[1], root_rot[2], root_rot[3])
     for j in range(4):
         root_rot[j] = q[j]
+    # compass legs (one rigid segment, no knee): the planted feet hold the hips at leg's
+    # length; each stance foot votes for the hip height it needs, weighted by how deep in
+    # its stance it is (zero at touchdown and lift-off, so the height never jumps)
+    wsum = 0.0
+    dzsum = 0.0
+    dzmax = 1e9
+    for s in range(step_group.shape[0]):
+        if step_state[s] != STANCE:
+            continue
+        duty = min(max(group_duty[step_group[s]] * step_duty_scale[s], 0.05), 0.97)
+        w = math.sin(math.pi * min(step_u[s] / duty, 1.0)) ** 2 + 1e-3
+        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+            if foot_rigid[f] == 0:
+                continue
+            jx, jy, jz = _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw)
+            hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+            need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+            dzsum += w * (jz + need - hz)
+            wsum += w
+            dzmax = min(dzmax, jz + need - hz + 0.012 * foot_chain[f])   # never stretch a leg past 1.2%
+    if wsum > 0.0:
+        root_pos[2] += min(dzsum / wsum, dzmax)
+    # compass legs in flight swing on the sphere around the hip, never below the ground
+    for s in range(step_group.shape[0]):
+        if step_state[s] != FLIGHT:
+            continue
+        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+            if foot_rigid[f] == 0:
+                continue
+            jx, jy, jz = _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw)
+            hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+            need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+            z = place_pos[2] + hz - need - (jz - (foot_world[f, 2] - place_pos[2]))
+            foot_world[f, 2] = max(z, heights[nfoot + f] + foot_offset[f])
     # goals in character space through this frame's placement
     for s in range(step_group.shape[0]):
         if step_state[s] == OWNED:

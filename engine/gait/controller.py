@@ -96,6 +96,7 @@ class GaitController:
         self.step_progress = np.zeros(S)
         self.step_prev_u = np.zeros(S)
         self.step_parked = np.ones(S, np.int32)
+        self.step_lift_u = np.zeros(S)
         self.foot_world = np.zeros((F, 3))
         self.foot_lift = np.zeros((F, 3))
         self.foot_yaw = np.zeros(F)
@@ -158,7 +159,18 @@ class GaitController:
                             p[0] += dx
                             p[1] += dy
                         goals.set(b, p, r.foot_rest_rot[f], 1.0, 1.0)
-                    solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
+                    rt = root.copy()
+                    rigid = [f for f in feet if r.foot_rigid[f]]
+                    if rigid:
+                        # compass legs: the hips sit at leg's length above the displaced feet
+                        dz = []
+                        for f in rigid:
+                            j = goals.goal_pos[r.foot_body[f]] + r.foot_jointrel[f]
+                            h = c.body_rest_pos[0] + r.foot_hip[f]
+                            need = math.sqrt(max(r.foot_chain[f] ** 2 - (h[0] - j[0]) ** 2 - (h[1] - j[1]) ** 2, 0))
+                            dz.append(j[2] + need - h[2])
+                        rt[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
+                    solve_ik(plan, rt, c.body_rest_rot[0], goals, out_p, out_r, scratch)
                     err = np.linalg.norm(out_p[r.foot_body[feet]] - goals.goal_pos[r.foot_body[feet]], axis=1)
                     worst = max(worst, float(np.max(err)))
                 if worst <= tol or d < 1e-4:
@@ -426,7 +438,7 @@ class GaitController:
             K.gait_plan(dt, self._place3, self._vel3, idle, self.group_rate, self.group_phase, self.group_duty,
                         self.group_sweep, self.group_park, self.path, r.step_group, self.step_trigger,
                         self.step_duty_scale, r.step_foot_adr, r.step_foot_num, self.step_state,
-                        self.step_progress, self.step_prev_u, self.step_parked, r.foot_body, r.foot_neutral,
+                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, r.foot_body, r.foot_neutral,
                         self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                         self.foot_target_yaw, goal_pw, q)
         # ground under the centre and four points around it (slope at the body's scale)
@@ -483,9 +495,10 @@ class GaitController:
 
         # 6. feet and root
         K.gait_pose(place_pos, self._yaw, hts, self.path, self.group_lift, self.group_bob, self.group_sway,
-                    r.step_group, r.step_side, self.step_lift_scale, r.step_foot_adr, r.step_foot_num,
-                    self.step_state, self.step_progress, r.foot_body, r.foot_offset, r.foot_rest_rot,
-                    self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
+                    self.group_duty, r.step_group, r.step_side, self.step_lift_scale, self.step_duty_scale,
+                    r.step_foot_adr, r.step_foot_num, self.step_state, self.step_progress, self.step_prev_u,
+                    r.foot_body, r.foot_offset, r.foot_rest_rot, r.foot_hip, r.foot_jointrel, r.foot_chain,
+                    r.foot_rigid, self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                     self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw)
         self._last_place[:] = place_pos

@@ -24,6 +24,10 @@ Arrays (F feet, S steppers, G groups; all read-only):
     foot_hip (F, 3)               hip joint (where the limb meets the spine) in the root's frame
     foot_jointrel (F, 3)          rest foot joint minus rest foot origin (character space)
     foot_reach (F,)               longest hip-joint to foot-joint distance the gait allows, m
+    foot_chain (F,)               chain length from the hip joint to the foot joint, m
+    foot_rigid (F,) int32         1 when one rigid segment joins hip and foot (no knee): the foot
+                                  stays on a sphere around the hip, so the hips vault over the
+                                  planted foot (a compass gait) and the swing foot follows the sphere
     step_foot_adr, step_foot_num (S,) int32   feet of stepper s: foot_* rows [adr, adr+num)
     step_group (S,) int32, step_side (S,) float64 (+1 left, -1 right, 0 middle), step_rank (S,) int32
                                   (row from the front within its group)
@@ -70,6 +74,8 @@ class GaitRig:
     foot_hip: np.ndarray
     foot_jointrel: np.ndarray
     foot_reach: np.ndarray
+    foot_chain: np.ndarray
+    foot_rigid: np.ndarray
     step_foot_adr: np.ndarray
     step_foot_num: np.ndarray
     step_group: np.ndarray
@@ -181,7 +187,7 @@ def _empty_rig(c: Creature) -> GaitRig:
     i0 = np.zeros(0, np.int32)
     return GaitRig(mode="float", foot_body=i0, foot_stepper=i0, foot_neutral=np.zeros((0, 3)), foot_offset=z0,
                    foot_rest_rot=np.zeros((0, 4)), foot_hip=np.zeros((0, 3)), foot_jointrel=np.zeros((0, 3)),
-                   foot_reach=z0, step_foot_adr=i0, step_foot_num=i0, step_group=i0, step_side=z0,
+                   foot_reach=z0, foot_chain=z0, foot_rigid=i0, step_foot_adr=i0, step_foot_num=i0, step_group=i0, step_side=z0,
                    step_rank=i0, group_length=z0, group_ratio=z0, group_ratio_pq=(), group_radius=z0,
                    group_sweep=np.zeros((0, NCROUCH)), group_min_crouch=z0, float_height=float(max(c.size[2], 1e-3)))
 
@@ -213,7 +219,8 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
         for k in ks:
             f = int(c.leg_foot[k])
             chain = float(c.body_limb_length[f])
-            foot_rows.append((f, s, limb_root, chain))
+            rigid = 1 if len(c.leg_path(k)) <= 2 else 0
+            foot_rows.append((f, s, limb_root, chain, rigid))
         ys = np.mean([c.body_rest_pos[int(c.leg_foot[k]), 1] for k in ks])
         xs = np.mean([c.body_rest_pos[int(c.leg_foot[k]), 0] for k in ks])
         step_rows.append((adr, len(ks), xs, 1.0 if ys > 1e-6 else (-1.0 if ys < -1e-6 else 0.0)))
@@ -221,6 +228,7 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
     foot_stepper = np.array([r[1] for r in foot_rows], np.int32)
     foot_hip = np.array([c.body_rootrel_joint[r[2]] for r in foot_rows])
     chain = np.array([r[3] for r in foot_rows])
+    foot_rigid = np.array([r[4] for r in foot_rows], np.int32)
     step_side = np.array([r[3] for r in step_rows])
     step_x = np.array([r[2] for r in step_rows])
     step_rank = np.zeros(len(limbs), np.int32)
@@ -248,7 +256,10 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
                 v = -d[2] - cr * group_length[g]         # hip height above the foot joint after crouching
                 r0 = float(np.hypot(d[0], d[1]))
                 R = foot_reach[f]
-                if v <= 0.0:                               # crouched below the foot: only the reach bounds it
+                if foot_rigid[f]:
+                    # compass: the hips may sink to 90% of the leg over the planted foot
+                    avail = float(np.sqrt(max(chain[f] ** 2 - (0.9 * chain[f]) ** 2, 0.0))) - r0
+                elif v <= 0.0:                               # crouched below the foot: only the reach bounds it
                     avail = R - r0
                 elif R > v:
                     avail = float(np.sqrt(R * R - v * v)) - r0
@@ -257,13 +268,16 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
                 worst = min(worst, avail)
             group_sweep[g, ci] = max(worst, 0.0)
     group_min_crouch = np.zeros(ngroup)
+    feet_of_group = [np.flatnonzero(step_group[foot_stepper] == g) for g in range(ngroup)]
     for g in range(ngroup):
+        if np.all(foot_rigid[feet_of_group[g]]):
+            continue                                       # compass legs never crouch: the hips vault
         ok = np.flatnonzero(group_sweep[g] >= MIN_SWEEP * group_length[g])
         k = int(ok[0]) if len(ok) else int(np.argmax(group_sweep[g]))
         group_min_crouch[g] = crouch[k]
     return GaitRig(mode="walk", foot_body=foot_body, foot_stepper=foot_stepper, foot_neutral=foot_neutral,
                    foot_offset=foot_offset, foot_rest_rot=c.body_rest_rot[foot_body].copy(), foot_hip=foot_hip,
-                   foot_jointrel=foot_jointrel, foot_reach=foot_reach,
+                   foot_jointrel=foot_jointrel, foot_reach=foot_reach, foot_chain=chain, foot_rigid=foot_rigid,
                    step_foot_adr=np.array([r[0] for r in step_rows], np.int32),
                    step_foot_num=np.array([r[1] for r in step_rows], np.int32), step_group=step_group,
                    step_side=step_side, step_rank=step_rank, group_length=group_length,
@@ -298,7 +312,8 @@ def _crawl_rig(c: Creature) -> GaitRig:
     return GaitRig(mode="crawl", foot_body=foot_body, foot_stepper=np.arange(n, dtype=np.int32),
                    foot_neutral=foot_neutral, foot_offset=foot_offset,
                    foot_rest_rot=c.body_rest_rot[foot_body].copy(), foot_hip=np.zeros((n, 3)),
-                   foot_jointrel=np.zeros((n, 3)), foot_reach=np.full(n, np.inf),
+                   foot_jointrel=np.zeros((n, 3)), foot_reach=np.full(n, np.inf), foot_chain=np.zeros(n),
+                   foot_rigid=np.zeros(n, np.int32),
                    step_foot_adr=np.arange(n, dtype=np.int32), step_foot_num=np.ones(n, np.int32),
                    step_group=np.zeros(n, np.int32), step_side=np.zeros(n), step_rank=rank,
                    group_length=np.array([spacing]), group_ratio=np.ones(1), group_ratio_pq=(Fraction(1),),

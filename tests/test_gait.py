@@ -1,0 +1,363 @@
+"""Gait stage (issue 6): leg groups, harmonized ratios, styles, planted feet, crawl/float,
+composition with animations, and invalid inputs. Small creatures, short walks."""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import engine
+from engine.gait import (GaitController, GaitError, GaitStyleError, analyze, cluster_lengths, harmonize, load_style,
+                         parse_style_text, style_names)
+from engine.gait.metrics import rolling_terrain, run_scenario
+from engine.model import build_creature, creature_from_text
+from engine.model.random import random_creature_def
+
+MINI = """
+format: 1
+name: mini
+description: tiny test biped
+bodies:
+  - name: chest
+    caps: [spine]
+    pos: [0, 0, 1.3]
+    extents: [0.1, 0.15, 0.15]
+  - name: pelvis
+    parent: chest
+    caps: [spine]
+    pos: [0, 0, 1.0]
+    joint: [0, 0, 1.15]
+    extents: [0.1, 0.15, 0.1]
+  - name: thigh_l
+    parent: pelvis
+    caps: [limb]
+    pos: [0, 0.1, 0.75]
+    joint: [0, 0.1, 0.95]
+    extents: [0.05, 0.05, 0.2]
+  - name: foot_l
+    parent: thigh_l
+    caps: [foot]
+    pos: [0.05, 0.1, 0.05]
+    joint: [0, 0.1, 0.5]
+    extents: [0.1, 0.04, 0.04]
+  - name: thigh_r
+    parent: pelvis
+    caps: [limb]
+    pos: [0, -0.1, 0.75]
+    joint: [0, -0.1, 0.95]
+    extents: [0.05, 0.05, 0.2]
+  - name: foot_r
+    parent: thigh_r
+    caps: [foot]
+    pos: [0.05, -0.1, 0.05]
+    joint: [0, -0.1, 0.5]
+    extents: [0.1, 0.04, 0.04]
+  - name: head
+    parent: chest
+    caps: [head, mouth]
+    pos: [0, 0, 1.6]
+    joint: [0, 0, 1.45]
+    extents: [0.1, 0.1, 0.12]
+"""
+
+
+@pytest.fixture(scope="module")
+def mini():
+    return creature_from_text(MINI)
+
+
+@pytest.fixture(scope="module")
+def dog():
+    return engine.load_creature("creatures/dog.yaml")
+
+
+# -- static analysis -----------------------------------------------------------------------
+
+
+def test_harmonize_small_rationals():
+    # equal legs cycle together; legs about half as long cycle twice as fast
+    assert harmonize([1.0, 1.0]) == [Fraction(1), Fraction(1)]
+    assert harmonize([0.9, 0.4]) == [Fraction(1), Fraction(2)]
+    r = harmonize([1.0, 0.66])
+    assert r[1] == Fraction(3, 2)
+    assert all(f.numerator <= 4 and f.denominator <= 4 for f in harmonize([1.0, 0.37, 0.52, 0.8]))
+
+
+def test_cluster_lengths_by_hand():
+    g = cluster_lengths([0.96, 0.96, 0.38, 0.38, 0.81, 0.81])
+    assert g.tolist() == [0, 0, 1, 1, 0, 0]
+    assert cluster_lengths([1.0, 0.5, 0.24]).tolist() == [0, 1, 2]
+
+
+def test_rig_of_mixedlegs_and_forkstrider():
+    mixed = analyze(engine.load_creature("creatures/mixedlegs.yaml"))
+    assert mixed.mode == "walk" and mixed.ngroup == 2
+    assert sorted(float(r) for r in mixed.group_ratio) == [1.0, 2.0]    # short legs cycle twice as fast
+    fork = analyze(engine.load_creature("creatures/forkstrider.yaml"))
+    # a branching limb is one stepper: its two feet step together
+    assert fork.nfoot == 4 and fork.nstep == 2
+    assert np.all(fork.step_foot_num == 2)
+
+
+def test_stepper_order_front_to_back_left_first(dog):
+    rig = analyze(dog)
+    order = rig.group_steppers(0)
+    xs = [rig.foot_neutral[rig.step_foot_adr[s], 0] for s in order]
+    sides = [rig.step_side[s] for s in order]
+    assert xs[0] >= xs[2] and sides[:2] == [1.0, -1.0]
+
+
+def test_float_or_crawl_heuristic():
+    assert analyze(engine.load_creature("creatures/fish.yaml")).mode == "float"
+    assert analyze(engine.load_creature("creatures/jellyfish.yaml")).mode == "float"
+    snake = analyze(engine.load_creature("creatures/snake.yaml"))
+    assert snake.mode == "crawl" and snake.nfoot >= 3 and 0 not in snake.foot_body.tolist()
+
+
+# -- styles ----------------------------------------------------------------------------------
+
+
+def test_shipped_styles_load():
+    names = style_names()
+    for need in ("walk", "trot", "run", "gallop", "sneak", "limp", "heavy"):
+        assert need in names
+        s = load_style(need)
+        assert s.table.shape[1] == 8 and s.path.shape[1] == 3
+        assert abs(s.path[0, 1]) < 1e-9 and abs(s.path[-1, 1]) < 1e-9       # feet leave and meet the ground
+
+
+def test_style_interpolates_by_speed():
+    s = load_style("walk")
+    a, b = s.table[0], s.table[1]
+    mid = s.params_at(0.5 * (a[0] + b[0]))
+    assert np.allclose(mid, 0.5 * (a + b))
+    assert np.allclose(s.params_at(-1.0), a) and np.allclose(s.params_at(1e6), s.table[-1])
+
+
+def test_procedural_wave_for_many_feet():
+    s = load_style("walk")
+    n = 24
+    side = np.array([1.0, -1.0] * 12)
+    rank = np.repeat(np.arange(12), 2)
+    trig, dsc, lsc = s.stepper_pattern(side, rank, 12)
+    assert trig.shape == (n,) and np.all((trig >= 0) & (trig < 1))
+    # the two sides of a segment are half a cycle apart, neighbours along a side differ
+    assert np.allclose((trig[1] - trig[0]) % 1.0, 0.5)
+    assert len(set(np.round(trig[::2], 6))) > 6
+
+
+GOOD = """format: 1
+name: t
+speeds:
+  - {speed: 0.0, stride: 0.5, duty: 0.7}
+triggers: [[0.0], [0.0, 0.5], [0, 0.3, 0.6], [0, 0.5, 0.5, 0], [0, 0.2, 0.4, 0.6, 0.8], [0, 0.5, 0.5, 0, 0, 0.5]]
+"""
+
+BAD_STYLES = [
+    ("format: 2\nname: t\nspeeds: []\ntriggers: []\n", "format", "unsupported format"),
+    (GOOD.replace("duty: 0.7", "duty: 1.0"), "speeds[0].duty", "outside"),
+    (GOOD.replace("stride: 0.5, ", ""), "speeds[0].stride", "missing"),
+    (GOOD.replace("[0.0, 0.5],", "[0.0],"), "triggers[1]", "must list 2"),
+    (GOOD + "bogus: 1\n", "bogus", "unknown field"),
+    (GOOD + "flight: {curve: [[0, 0, 0, 0], [1, 0.5, 0, 0]]}\n", "flight.curve", "forward must go"),
+    (GOOD + "duty_scale: [[1], [1, 1.5], [1, 1, 1], [1, 1, 1, 1], [1, 1, 1, 1, 1], [1, 1, 1, 1, 1, 1]]\n",
+     "duty_scale[1][1]", "no time"),
+    (GOOD.replace("speeds:\n  - {speed: 0.0, stride: 0.5, duty: 0.7}",
+                  "speeds:\n  - {speed: 1.0, stride: 0.5, duty: 0.7}\n  - {speed: 0.5, stride: 0.5, duty: 0.7}"),
+     "speeds[1].speed", "ascend"),
+]
+
+
+@pytest.mark.parametrize("text,field,msg", BAD_STYLES)
+def test_invalid_styles_name_field_and_line(text, field, msg):
+    with pytest.raises(GaitStyleError) as e:
+        parse_style_text(text, "bad.yaml")
+    assert e.value.field == field and msg in str(e.value)
+    assert e.value.path == "bad.yaml" and e.value.line is not None
+
+
+def test_good_style_parses():
+    s = parse_style_text(GOOD)
+    assert s.name == "t" and s.triggers[2] == (0.0, 0.3, 0.6)
+
+
+def test_invalid_controller_inputs(mini):
+    g = GaitController(mini)
+    with pytest.raises(GaitError):
+        g.command(np.array([np.nan, 0.0]), 0.0)
+    with pytest.raises(GaitError):
+        g.command(np.zeros(3), 0.0)
+    with pytest.raises(GaitError):
+        g.set_terrain(3.0)
+    with pytest.raises(GaitError):
+        g.set_terrain(lambda x, y: np.full(np.shape(x), np.nan))
+    with pytest.raises(GaitError):
+        g.set_style("walk", group=5)
+    with pytest.raises(GaitError):
+        g.set_style("walk", weight=2.0)
+    with pytest.raises(GaitStyleError):
+        g.set_style("no_such_style")
+
+
+# -- walking ---------------------------------------------------------------------------------
+
+
+def _short(t, L):
+    if t < 1.5:
+        return 1.0 * L, 0.0, 0.5
+    if t < 2.0:
+        return 0.0, 0.0, 0.0          # sudden stop
+    return -0.5 * L, 0.0, -0.8        # reverse and turn
+
+
+@pytest.mark.parametrize("name", ["mini", "dog", "hexapod", "tripod"])
+def test_planted_feet_do_not_slide(name, mini):
+    c = mini if name == "mini" else engine.load_creature(f"creatures/{name}.yaml")
+    for terrain in (False, True):
+        m = run_scenario(c, seconds=3.0, terrain=terrain, commands=_short)
+        assert m["finite"]
+        assert m["stances"] > 4
+        assert m["stance_slide_mm"] <= 1.0, m
+        assert m["touchdown_error_mm"] <= 10.0, m
+        assert m["below_ground_mm"] <= 1.0, m
+        assert m["stretch_ratio"] <= 1.02, m
+
+
+def test_character_moves_along_command(mini):
+    ch = engine.Character(mini)
+    for _ in range(120):
+        ch.locomote((0.5, 0.0), 0.0)
+        ch.tick(1 / 60)
+    # accelerated toward 0.5 m/s within the style's limit, heading unchanged
+    assert 0.3 < ch.position[0] < 1.0 and abs(ch.position[1]) < 1e-9
+    v = ch.gait.velocity[0]
+    assert 0.0 < v <= 0.5 + 1e-9
+    for _ in range(60):
+        ch.locomote((0.0, 0.0), 1.0)
+        ch.tick(1 / 60)
+    yaw = 2 * math.atan2(ch.rotation[3], ch.rotation[0])
+    assert 0.3 < yaw < 1.0
+
+
+def test_stop_reverse_turn_bounded(dog):
+    """The root's velocity never jumps: commands are reached with bounded acceleration."""
+    ch = engine.Character(dog)
+    L = float(np.max(ch._ensure_gait().rig.group_length))
+    acc = load_style("walk").accel * L
+    prev = None
+    for i in range(150):
+        cmd = (1.2 * L, 0.0, 0.0) if i < 60 else ((0.0, 0.0, 0.0) if i < 61 else (-0.6 * L, 0.0, 2.0))
+        ch.locomote(cmd[:2], cmd[2])
+        before = ch.gait.velocity.copy()
+        ch.tick(1 / 60)
+        dv = np.linalg.norm(ch.gait.velocity - before)
+        assert dv <= acc / 60 + 1e-9
+        p = ch.world_positions[0].copy()
+        if prev is not None:
+            assert np.linalg.norm(p - prev) * 60 < 3.0 * L       # no popping of the hips
+        prev = p
+
+
+def test_mixed_groups_and_layered_styles():
+    c = engine.load_creature("creatures/mixedlegs.yaml")
+    ch = engine.Character(c)
+    ch.locomote((0.3, 0.0), 0.0)
+    g = ch.gait
+    g.set_style("trot", group=0)
+    g.set_style("run", group=1)
+    g.set_style("limp", group=0, weight=0.5, layer=True)
+    assert g.styles(0) == [("trot", 1.0), ("limp", 0.5)] and g.styles(1) == [("run", 1.0)]
+    for _ in range(90):
+        ch.tick(1 / 60)
+    assert np.all(np.isfinite(ch.world_positions))
+    # the short group cycles at twice the long group's rate (harmonized 2:1)
+    short = int(np.argmin(g.rig.group_length))
+    assert g.group_rate[short] == pytest.approx(2.0 * g.group_rate[1 - short])
+
+
+def test_idle_feet_park_and_stay(dog):
+    ch = engine.Character(dog)
+    for i in range(200):
+        ch.locomote((0.4, 0.0) if i < 60 else (0.0, 0.0), 0.0)
+        ch.tick(1 / 60)
+    g = ch.gait
+    assert np.all(g.step_state == 0) and np.all(g.step_parked == 1)
+    before = ch.world_positions[g.rig.foot_body].copy()
+    for _ in range(30):
+        ch.tick(1 / 60)
+    assert np.allclose(ch.world_positions[g.rig.foot_body], before, atol=1e-6)
+
+
+def test_terrain_scalar_function_and_slope_alignment(mini):
+    ch = engine.Character(mini)
+    ch.locomote((0.0, 0.0), 0.0)
+    ch.set_terrain(lambda x, y: 0.2 * float(x))          # scalar only: sampled point by point
+    for _ in range(60):
+        ch.locomote((0.5, 0.0), 0.0)
+        ch.tick(1 / 60)
+    # the character rides up the slope; the torso pitches nose-up (rotation about -y)
+    assert ch.position[2] == pytest.approx(0.2 * ch.position[0], abs=0.03)
+    root_rot = ch.world_rotations[0]
+    fwd = root_rot[0] ** 2 + root_rot[1] ** 2 - root_rot[2] ** 2 - root_rot[3] ** 2, 0, 2 * (root_rot[1] * root_rot[3] - root_rot[0] * root_rot[2])
+    assert fwd[2] > 0.02
+
+
+def test_animation_owned_foot_is_not_driven(mini):
+    ch = engine.Character(mini)
+    ch.locomote((0.5, 0.0), 0.0)
+    g = ch.gait
+    s, r = ch._stack, ch._row
+    foot = mini.body("foot_l")
+    held = np.array([0.3, 0.1, 0.4])
+    for _ in range(40):
+        # what a playing clip's channel would leave after the blend
+        ch.stages.blend = False
+        s.goal_pw[r] = 0.0
+        s.goal_rw[r] = 0.0
+        s.root_pos[r] = mini.body_rest_pos[0]
+        s.root_rot[r] = mini.body_rest_rot[0]
+        s.goal_pos[r, foot] = held
+        s.goal_pw[r, foot] = 1.0
+        ch.tick(1 / 60)
+        assert np.allclose(s.goal_pos[r, foot], held)
+    stepper = g.rig.foot_stepper[list(g.rig.foot_body).index(foot)]
+    assert g.step_state[stepper] == 3
+    # released: the gait takes the foot back with a step from where the animation left it
+    s.goal_pw[r] = 0.0
+    ch.stages.blend = True
+    ch.tick(1 / 60)
+    assert g.step_state[stepper] == 1
+    assert np.linalg.norm(s.goal_pos[r, foot] - held) < 0.05
+
+
+def test_floater_hovers_and_crawler_crawls():
+    fish = engine.load_creature("creatures/fish.yaml")
+    ch = engine.Character(fish)
+    zs = []
+    for _ in range(120):
+        ch.locomote((0.5, 0.0), 0.2)
+        ch.tick(1 / 60)
+        zs.append(ch.world_positions[0, 2])
+    assert ch.gait.goal_bodies.size == 0 and ch.position[0] > 0.2
+    assert np.ptp(zs) > 1e-3 and min(zs) >= fish.body_rest_pos[0, 2] - 1e-9   # a gentle bob above rest
+    snake = engine.load_creature("creatures/snake.yaml")
+    m = run_scenario(snake, seconds=2.0, terrain=False, commands=lambda t, L: (0.5 * L, 0.0, 0.2))
+    assert m["finite"] and m["stances"] > 3
+
+
+@pytest.mark.parametrize("seed", [3, 11, 27])
+def test_random_creatures_walk(seed):
+    c = build_creature(random_creature_def(seed))
+    m = run_scenario(c, seconds=2.0, terrain=True, commands=_short)
+    assert m["finite"], m
+    if m["mode"] == "walk":
+        assert m["below_ground_mm"] <= 1.0 and m["stretch_ratio"] <= 1.03
+
+
+def test_rolling_terrain_vectorised():
+    h = rolling_terrain(1.0)
+    x = np.linspace(-3, 3, 7)
+    assert np.allclose(h(x, x), [h(float(a), float(a)) for a in x])
