@@ -489,6 +489,12 @@ class GaitController:
             want = max(want, share * r.group_length[g])
         self._crouch += a_t * (want - self._crouch)
         self._root_dpos[2] = -self._crouch
+        if r.mode == "crawl":
+            # a crawler's body lies on the ground: no crouch, bob or sway of the root (the
+            # arching of the spine between pseudo-feet is the motion)
+            self._root_dpos[2] = 0.0
+            self.group_bob[:] = 0.0
+            self.group_sway[:] = 0.0
         if r.mode == "float":
             # hover with a gentle bob at the rest height over the ground
             self._root_dpos[2] = 0.03 * r.float_height * (1.0 - math.cos(2.0 * math.pi * 0.4 * self._time))

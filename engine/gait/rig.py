@@ -287,10 +287,21 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
 
 
 def _crawl_rig(c: Creature) -> GaitRig:
-    """Pseudo-feet: every other spine body along the chain (never the root, which the IK
-    drives forward-kinematically), starting from both ends."""
+    """Pseudo-feet: three or four spine bodies that touch the ground at rest, spread as
+    evenly along the chain as they allow, never the root (the IK drives it forward-kinematically). More pseudo-feet
+    over-constrain the spine: the IK's spine phase places particles only at branch points
+    (section 4.3.2), and goals on many interior spine bodies cannot all be met."""
     spine = [int(b) for b in c.spine_chain]
-    picks = [b for i, b in enumerate(spine) if i % 2 == 0 or i == len(spine) - 1]
+    height = max(float(c.bounds[1, 2]), 1e-6)
+    # only bodies that lie on the ground at rest can push on it (an inch-worm's arch stays up)
+    touching = [i for i, b in enumerate(spine) if b != 0 and _lowest_corner(c, b) <= 0.05 * height + 1e-4]
+    if not touching:
+        return _empty_rig(c)
+    k = 4 if len(spine) >= 8 else 3
+    picks = []
+    for target in np.linspace(0, len(spine) - 1, k):
+        i = min(touching, key=lambda j: abs(j - target))
+        picks.append(spine[i])
     picks = [b for b in dict.fromkeys(picks) if b != 0]
     if not picks:
         return _empty_rig(c)
