@@ -550,15 +550,23 @@ def _prepare(m, s, h):
         _inv3_sym_into(k00, k01, k02, k11, k12, k22, s.joint_kinv, j)
         _inv3_sym_into(l00, l01, l02, l11, l12, l22, s.joint_ang_kinv, j)
 
-    if m.params[P_SOLVER] != 0.0:
-        _servo_inertia(m, s)
-    else:
-        _servo_inertia_local(m, s)
+    # servo inertias, only when a servo is on (most ragdolls and all tracking run without)
+    any_servo = False
+    for j in range(m.joint_parent.shape[0]):
+        if s.joint_pd_hz[j] > 0.0 and m.joint_locked[j] == 0:
+            any_servo = True
+            break
+    if any_servo:
+        if m.params[P_SOLVER] != 0.0:
+            _servo_inertia(m, s)
+        else:
+            _servo_inertia_local(m, s)
 
     if m.params[P_SOLVER] != 0.0:
+        _update_node_dims(m, s)
         # servo impulses are re-accumulated every substep by the direct solve
         for j in range(m.joint_parent.shape[0]):
-            if _servo_direct(m, s, j):
+            if s.joint_servo_direct[j] != 0:
                 s.joint_pd_imp[j, 0] = 0.0
                 s.joint_pd_imp[j, 1] = 0.0
                 s.joint_pd_imp[j, 2] = 0.0
@@ -767,7 +775,7 @@ def _warm_start(m, s):
             _apply(m, s, a, s.joint_ra[j, 0], s.joint_ra[j, 1], s.joint_ra[j, 2], px, py, pz, -1.0)
             _apply(m, s, b, s.joint_rb[j, 0], s.joint_rb[j, 1], s.joint_rb[j, 2], px, py, pz, 1.0)
         gs = 1.0 if m.params[P_SOLVER] == 0.0 else 0.0
-        pd = 1.0 if (gs == 1.0 or not _servo_direct(m, s, j)) else 0.0
+        pd = 1.0 if (gs == 1.0 or not s.joint_servo_direct[j] != 0) else 0.0
         lx = gs * s.joint_lock_imp[j, 0] + pd * s.joint_pd_imp[j, 0]
         ly = gs * s.joint_lock_imp[j, 1] + pd * s.joint_pd_imp[j, 1]
         lz = gs * s.joint_lock_imp[j, 2] + pd * s.joint_pd_imp[j, 2]
@@ -842,21 +850,17 @@ def _invert_into(A, d, out, work):
 
 
 @njit(cache=True)
-def _servo_direct(m, s, j):
-    """A PD servo solved in the tree: active and without a torque limit (a limit is an
-    inequality, left to sequential impulses)."""
-    return m.joint_locked[j] == 0 and s.joint_pd_hz[j] > 0.0 and s.joint_pd_max_torque[j] <= 0.0
-
-
-@njit(cache=True)
-def _node_dim(m, s, node):
-    """6 for a body, 3 for a ball joint, 6 for a locked joint or a joint with a servo
-    (point rows + rotation rows)."""
+def _update_node_dims(m, s):
+    """node_dim: 6 for a body, 3 for a ball joint, 6 for a locked joint or a joint with a
+    servo (point rows + rotation rows); joint_servo_direct: servo solved in the tree.
+    Computed once per substep (servos can be switched between steps)."""
     nb = m.body_inv_mass.shape[0]
-    if node < nb:
-        return 6
-    j = node - nb
-    return 6 if (m.joint_locked[j] != 0 or _servo_direct(m, s, j)) else 3
+    for b in range(nb):
+        s.node_dim[b] = 6
+    for j in range(m.joint_parent.shape[0]):
+        direct = m.joint_locked[j] == 0 and s.joint_pd_hz[j] > 0.0 and s.joint_pd_max_torque[j] <= 0.0
+        s.joint_servo_direct[j] = 1 if direct else 0
+        s.node_dim[nb + j] = 6 if (m.joint_locked[j] != 0 or direct) else 3
 
 
 @njit(cache=True)
@@ -875,7 +879,7 @@ def _edge_block(m, s, node, H):
         H[3, 1], H[3, 2] = -rz, ry
         H[4, 0], H[4, 2] = rz, -rx
         H[5, 0], H[5, 1] = -ry, rx
-        if _node_dim(m, s, nb + j) == 6:
+        if s.node_dim[nb + j] == 6:
             # rotation rows of a locked joint or a servo: Cdot = w_b - w_a
             H[3, 3] = H[4, 4] = H[5, 5] = 1.0
     else:
@@ -885,7 +889,7 @@ def _edge_block(m, s, node, H):
         H[0, 4], H[0, 5] = -rz, ry
         H[1, 3], H[1, 5] = rz, -rx
         H[2, 3], H[2, 4] = -ry, rx
-        if _node_dim(m, s, node) == 6:
+        if s.node_dim[node] == 6:
             H[3, 3] = H[4, 4] = H[5, 5] = -1.0
 
 
@@ -935,7 +939,7 @@ def _factor_tree(m, s, h):
             D[i, 5, 4] = D[i, 4, 5]
         else:
             j = i - nb
-            if _servo_direct(m, s, j):
+            if s.joint_servo_direct[j] != 0:
                 # soft rotation rows (Catto, "Soft Constraints", GDC 2011):
                 # J v' + (beta/h) C + gamma lambda = 0, gamma = 1 / (h (c + h k)) with the
                 # spring k = I w^2 and damper c = 2 zeta w I of the servo's joint inertia I:
@@ -949,12 +953,12 @@ def _factor_tree(m, s, h):
     # leaves first: invert, then pass the Schur complement up to the parent
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]
-        d = _node_dim(m, s, i)
+        d = s.node_dim[i]
         _invert_into(D[i], d, s.node_Dinv[i], s.node_work)
         p = m.node_parent[i]
         if p < 0:
             continue
-        dp = _node_dim(m, s, p)
+        dp = s.node_dim[p]
         _edge_block(m, s, i, H)
         L = s.node_L[i]
         Di = s.node_Dinv[i]
@@ -1014,7 +1018,7 @@ def _solve_points_direct(m, s, h, use_bias):
                 x[i, 3] = -(s.body_angvel[b, 0] - s.body_angvel[a, 0] + jbias * ex)
                 x[i, 4] = -(s.body_angvel[b, 1] - s.body_angvel[a, 1] + jbias * ey)
                 x[i, 5] = -(s.body_angvel[b, 2] - s.body_angvel[a, 2] + jbias * ez)
-            elif _servo_direct(m, s, j):
+            elif s.joint_servo_direct[j] != 0:
                 # the servo spring acts in both passes: the relax pass solves for the
                 # increment on top of this substep's impulse so far (gamma lambda_acc)
                 omega = 2.0 * math.pi * s.joint_pd_hz[j]
@@ -1033,7 +1037,7 @@ def _solve_points_direct(m, s, h, use_bias):
     z = s.node_z
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]
-        d = _node_dim(m, s, i)
+        d = s.node_dim[i]
         Di = s.node_Dinv[i]
         for r in range(d):
             acc = 0.0
@@ -1042,7 +1046,7 @@ def _solve_points_direct(m, s, h, use_bias):
             z[i, r] = acc
         p = m.node_parent[i]
         if p >= 0:
-            dp = _node_dim(m, s, p)
+            dp = s.node_dim[p]
             L = s.node_L[i]
             for c in range(dp):
                 acc = 0.0
@@ -1052,10 +1056,10 @@ def _solve_points_direct(m, s, h, use_bias):
     # back substitution (root first): x_i = z_i - L_i x_parent
     for k in range(m.node_order.shape[0]):
         i = m.node_order[k]
-        d = _node_dim(m, s, i)
+        d = s.node_dim[i]
         p = m.node_parent[i]
         if p >= 0:
-            dp = _node_dim(m, s, p)
+            dp = s.node_dim[p]
             L = s.node_L[i]
             for r in range(d):
                 acc = 0.0
@@ -1074,7 +1078,7 @@ def _solve_points_direct(m, s, h, use_bias):
                 s.body_angvel[i, c] += x[i, 3 + c]
         else:
             j = i - nb
-            servo = _servo_direct(m, s, j)
+            servo = s.joint_servo_direct[j] != 0
             for c in range(3):
                 s.joint_imp[j, c] = -x[i, c]
                 if m.joint_locked[j] != 0:
@@ -1138,7 +1142,7 @@ def _solve_joints(m, s, h, use_bias, do_points):
         pd_hz = s.joint_pd_hz[j]
         if not locked and pd_hz <= 0.0:
             continue
-        if not do_points and _servo_direct(m, s, j):
+        if not do_points and s.joint_servo_direct[j] != 0:
             continue          # solved in the tree with the joints
         qa = s.body_rot[a]
         qb = s.body_rot[b]

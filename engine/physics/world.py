@@ -81,6 +81,8 @@ class StateArrays(NamedTuple):
     pair_sep: np.ndarray
     pair_mass: np.ndarray
     pair_imp: np.ndarray
+    node_dim: np.ndarray
+    joint_servo_direct: np.ndarray
     node_D: np.ndarray
     node_Dinv: np.ndarray
     node_L: np.ndarray
@@ -118,6 +120,7 @@ class PhysicsState:
             pair_active=z(p, np.int32), pair_point=z((p, 3)), pair_ra=z((p, 3)), pair_rb=z((p, 3)),
             pair_local=z((p, 6)), pair_normal=z((p, 3)), pair_t1=z((p, 3)), pair_t2=z((p, 3)), pair_sep=z(p),
             pair_mass=z((p, 3)), pair_imp=z((p, 3)),
+            node_dim=np.full(n + j, 3, np.int32), joint_servo_direct=z(j, np.int32),
             node_D=z((n + j, 6, 6)), node_Dinv=z((n + j, 6, 6)), node_L=z((n + j, 6, 6)), node_H=z((6, 6)),
             node_work=z((6, 12)), node_x=z((n + j, 6)), node_z=z((n + j, 6)), clock=z(2),
         )
