@@ -415,10 +415,14 @@ def test_plan_structure_of_mini(mini):
     limb = a.sc_kind == 1
     assert np.allclose(np.sort(a.sc_len[limb]), np.linalg.norm([0.1, 0.5]))
     assert np.allclose(a.sc_lo[limb], 0.1)
-    # Limb phase: a particle at each leg joint, one constraint per leg body, and a tip
-    # particle at each foot's origin (off its joint) tied rigidly to the ankle.
-    assert a.lp_body.shape[0] == 6 and a.lc_a.shape[0] == 4
-    assert list(a.lp_mode) == [0, 0, 3, 0, 0, 3]
+    # Limb phase: a particle at each leg joint, one constraint per leg body, a tip
+    # particle at each foot's origin (off its joint) tied rigidly to the ankle, and a
+    # brace from the hip to the tip keeping the foot's rest angle to the thigh (so the
+    # foot's frame comes from two axes: mode 1).
+    assert a.lp_body.shape[0] == 6 and a.lc_a.shape[0] == 6
+    assert list(a.lp_mode) == [0, 1, 3, 0, 1, 3]
+    braces = a.lc_goal >= 0
+    assert np.allclose(a.lc_len[braces], np.linalg.norm([0.05, 0.0, 0.9]))
     tips = a.lp_mode == 3
     assert np.allclose(a.lc_len[a.lp_con[tips]], np.linalg.norm([0.05, 0.0, 0.45]))
     assert np.all(a.lc_plo[a.lp_con[tips]] == 1.0) and np.all(a.lc_phi[a.lp_con[tips]] == 1.0)

@@ -51,6 +51,7 @@ INT_FIELDS = (
     "lp_c1", "lp_c2",      # (nlp,) child particles giving the axes (-1 if unused)
     "lp_goal",             # (nlp,) goal slot of the particle's body, -1 if none
     "lc_a", "lc_b",        # (nlc,) limb constraints, leaves inward
+    "lc_goal",             # (nlc,) goal slot whose rotation weight softens it (a tip's brace), else -1
     "ag_pivot",            # (nag,) aim groups: pivot particle
     "ag_moved_adr", "ag_moved_num", "ag_goal_adr", "ag_goal_num",
     "ag_moved",            # particles an aim group moves
@@ -59,7 +60,8 @@ INT_FIELDS = (
     "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
     "goal_lp",             # (ngoal,) limb-phase particle the position goal pins (a tip or the joint), -1 if none
     "goal_lpj",            # (ngoal,) the goal body's joint particle when goal_lp is its tip, else -1
-    "goal_limb_root",      # (ngoal,) limb root of a limb goal, the root (0) for a delegated one, else -1
+    "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
+                           # body's goal held at its origin (self-delegated), else -1
     "scratch_layout",      # (9,) first row of each scratch block (see ``_scratch_views``)
 )
 FLOAT_FIELDS = (
@@ -79,6 +81,7 @@ FLOAT_FIELDS = (
     ("seg_rest_twist", 4),           # transported frame at t=1 relative to the end body, at rest
     ("segbody_t", 1), ("segbody_off", 3), ("segbody_rot", 4),
     ("dg_chord", 3),       # delegated joint relative to the spine particle, spine body frame
+    ("dg_rel_rot", 4),     # delegating body's rest rotation relative to the spine body
     ("lp_local", 3),       # rest joint in the attach body's rest frame
     ("lp_init_local", 3),  # the same with the bend hint for straight rest chains
     ("lp_rot_local", 4),   # rest rotation relative to the attach body
@@ -431,21 +434,16 @@ def unpack(pi, pf, pf3, pf4):
         _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
         _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
-        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47),
         # floats
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
-        _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7),
-        _f(pi, pf, 8), _f(pi, pf, 9), _f(pi, pf, 10), _f(pi, pf, 11), _f(pi, pf, 12),
-        _f(pi, pf, 13), _f(pi, pf, 14), _f(pi, pf, 15), _f(pi, pf, 16),
-        _f(pi, pf3, 17),
-        _f(pi, pf3, 18), _f(pi, pf3, 19), _f(pi, pf3, 20), _f(pi, pf3, 21),
-        _f(pi, pf, 22), _f(pi, pf4, 23),
-        _f(pi, pf, 24), _f(pi, pf3, 25), _f(pi, pf4, 26),
-        _f(pi, pf3, 27),
-        _f(pi, pf3, 28), _f(pi, pf3, 29), _f(pi, pf4, 30),
-        _f(pi, pf, 31), _f(pi, pf, 32), _f(pi, pf, 33), _f(pi, pf, 34), _f(pi, pf, 35),
-        _f(pi, pf, 36), _f(pi, pf, 37),
-        _f(pi, pf, 38),
+        _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7), _f(pi, pf, 8), _f(pi, pf, 9),
+        _f(pi, pf, 10), _f(pi, pf, 11), _f(pi, pf, 12), _f(pi, pf, 13), _f(pi, pf, 14),
+        _f(pi, pf, 15), _f(pi, pf, 16), _f(pi, pf3, 17), _f(pi, pf3, 18), _f(pi, pf3, 19),
+        _f(pi, pf3, 20), _f(pi, pf3, 21), _f(pi, pf, 22), _f(pi, pf4, 23), _f(pi, pf, 24),
+        _f(pi, pf3, 25), _f(pi, pf4, 26), _f(pi, pf3, 27), _f(pi, pf4, 28), _f(pi, pf3, 29),
+        _f(pi, pf3, 30), _f(pi, pf4, 31), _f(pi, pf, 32), _f(pi, pf, 33), _f(pi, pf, 34),
+        _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
     )
 
 
@@ -496,6 +494,10 @@ def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_ro
             chord_goal = vsub(v3(goal_pos, g), attach)
             if vnorm(chord_rest) > 1e-9 and vnorm(chord_goal) > 1e-9:
                 est = qmul(qbetween(chord_rest, chord_goal), rest_rot)
+        if lr == -2:
+            # A spine body's goal held by a particle at its origin: no conversion.
+            set3(goal_joint, gi, v3(goal_pos, g))
+            continue
         wr = goal_rot_w[g]
         if wr > 0.0:
             est = qslerp(est, q4(goal_rot, g), min(wr, 1.0))
@@ -512,7 +514,7 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
         if goal_rot_w[db] <= 0.0:
             set3(dg_target, d, v3(goal_joint, P.dg_goal[d]))  # unused; finite
             continue
-        spine_rot = qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db)))
+        spine_rot = qmul(q4(goal_rot, db), qconj(q4(P.dg_rel_rot, d)))
         set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
 
 
@@ -677,6 +679,12 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             # When the spine buckled it is blended toward rest, and so is this swing
             # (else an unreachable delegated goal folds the end body over).
             rot = qslerp(rot, qmul(qbetween(acc_r, acc_p), rot), 1.0 - buckle)
+        # The spine body's own rotation goal, blended by its weight.
+        for gi in range(P.goal_body.shape[0]):
+            if P.goal_sp[gi] == i:
+                wr = min(max(goal_rot_w[s], 0.0), 1.0) * (1.0 - buckle)
+                if wr > 0.0:
+                    rot = qslerp(rot, q4(goal_rot, s), wr)
         # Delegated rotation goals: the spine body takes the rotation that puts the
         # delegating body on its goal, blended by the goal's weight.
         for d in range(P.dg_body.shape[0]):
@@ -685,7 +693,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             db = P.dg_body[d]
             wr = min(max(goal_rot_w[db], 0.0), 1.0) * (1.0 - buckle)
             if wr > 0.0:
-                rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.b_local_rot, db))), wr)
+                rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.dg_rel_rot, d))), wr)
         set4(out_rot, s, rot)
         set3(out_pos, s, vadd(v3(sp_pos, i), qrot(rot, v3(P.b_joint_offset, s))))
     # Interior spine bodies, by frame transport along each posed spline.
@@ -848,8 +856,16 @@ def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_in
             _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, True)
         for _inner in range(n_inner):
             for c in range(nlc):
+                stiff = 1.0
+                gi = P.lc_goal[c]
+                if gi >= 0:
+                    # A tip's brace to the parent joint keeps the body at its rest angle
+                    # to its parent, as far as no rotation goal says otherwise.
+                    stiff = 1.0 - min(max(goal_rot_w[P.goal_body[gi]], 0.0), 1.0)
+                    if stiff <= 0.0:
+                        continue
                 relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
-                                 P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], 1.0, slope, band, width)
+                                 P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], stiff, slope, band, width)
             _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, False)
 
 
@@ -933,15 +949,18 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
         _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                            out_pos, out_rot, state[0])
         _place_rigid(P, out_pos, out_rot)
-        # A delegated goal without a full rotation goal was converted to its joint with an
-        # estimated rotation; convert again with the rotation the spine gave it and, if
-        # the target moved, solve the spine again (from rest: still path independent).
+        # A spine or delegated goal without a full rotation goal was converted to its joint
+        # with an estimated rotation; convert again with the rotation the spine gave it
+        # and, if the target moved, solve the spine again (from rest: still path
+        # independent). A fixed-point iteration of at most 3 rounds.
         moved = 0.0
-        for d in range(P.dg_body.shape[0]):
-            db = P.dg_body[d]
-            if goal_pos_w[db] <= 0.0 or goal_rot_w[db] >= 1.0:
+        for gi in range(P.goal_body.shape[0]):
+            db = P.goal_body[gi]
+            i = P.goal_sp[gi]
+            if i < 0 or P.sp_kind[i] == 0 or goal_pos_w[db] <= 0.0 or goal_rot_w[db] >= 1.0:
                 continue
-            gi = P.dg_goal[d]
+            if P.sp_kind[i] == 2 and P.goal_limb_root[gi] != 0:
+                continue  # a limb goal: its rotation comes from the limb phase
             target = vsub(v3(goal_pos, db), qrot(q4(out_rot, db), v3(P.b_joint_offset, db)))
             moved = max(moved, vnorm(vsub(target, v3(goal_joint, gi))))
             set3(goal_joint, gi, target)
@@ -1038,7 +1057,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 47 + 39
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 48 + 40
 
 
 _check_layout()

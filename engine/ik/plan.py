@@ -317,7 +317,24 @@ def _build(c, goals: list[int], prm: IKParams):
     for g in goals:
         k = slot_of[g]
         if is_spine[g]:
-            goal_sp[k] = sp_of[g]
+            off = float(np.linalg.norm(c.body_joint_offset[g]))
+            if off <= 1e-9:
+                goal_sp[k] = sp_of[g]
+                continue
+            # A spine body whose origin is off its joint holds its goal with a particle at
+            # its origin, rigidly chorded to its spine particle: delegated to itself. The
+            # reconstruction swings the body so the chord points at that particle.
+            p = len(sp_kind)
+            sp_kind.append(2)
+            sp_body.append(g)
+            sp_rest.append(rr_pos[g].copy())
+            goal_sp[k] = p
+            goal_limb_root[k] = -2
+            depth = next((x["depth"] for x in ch if x["particle"] == sp_of[g]), 0) + 1
+            sc.append(dict(a=sp_of[g], b=p, kind=2, len=off, lo=1.0, hi=1.0, plo=1.0, phi=1.0, inva=1.0,
+                           invb=1.0, depth=depth))
+            dg.append(dict(body=g, goal=k, particle=p, spine_particle=sp_of[g], chord=c.body_joint_offset[g].copy(),
+                           rel_rot=np.array([1.0, 0.0, 0.0, 0.0])))
             continue
         limb_root = int(c.limb_root[c.body_limb[g]])
         if g in delegated:
@@ -340,7 +357,7 @@ def _build(c, goals: list[int], prm: IKParams):
                            invb=1.0, depth=depth))
             s_body = delegated[g]
             dg.append(dict(body=g, goal=k, particle=p, spine_particle=sp,
-                           chord=c.body_local_joint[g] + c.body_joint_offset[s_body]))
+                           chord=c.body_local_joint[g] + c.body_joint_offset[s_body], rel_rot=c.body_local_rot[g]))
         else:
             reach = float(c.body_limb_length[g]) + float(np.linalg.norm(rr_joint[limb_root] - sp_rest[sp]))
             lo = 1.0 if g == limb_root else prm.chord_compress
@@ -437,6 +454,7 @@ def _build(c, goals: list[int], prm: IKParams):
     lp = []  # dicts
     lp_of: dict[int, int] = {}
     tip_of: dict[int, int] = {}
+    brace: dict[int, int] = {}
     lc = []
     ag_pivot, ag_moved, ag_goal = [], [], []
     for li in range(c.nlimb):
@@ -478,6 +496,14 @@ def _build(c, goals: list[int], prm: IKParams):
                            local=_qrot(qs_inv, rr_pos[b] - rr_pos[s]), rot_local=_qmul(qs_inv, rr_rot[b]), goal=-1))
             lc.append(dict(a=lp_of[b], b=tip_of[b], len=off, inva=0.0 if b == r else 1.0, invb=1.0,
                            depth=int(c.body_depth[b]) + 1, plo=1.0, phi=1.0))
+            if b != r:
+                # The brace: tip to the parent's joint at rest distance, so the body keeps
+                # its rest angle to its parent (softened by the goal's rotation weight).
+                pp = lp_of[int(parent[b])]
+                brace[b] = pp
+                lc.append(dict(a=pp, b=tip_of[b], len=float(np.linalg.norm(rr_pos[b] - rr_joint[int(parent[b])])),
+                               inva=0.0 if int(parent[b]) == r else 1.0, invb=1.0, depth=int(c.body_depth[b]) + 1,
+                               goal=slot_of[b]))
 
         def goals_below(b):
             end = int(c.body_subtree_end[b])
@@ -535,7 +561,9 @@ def _build(c, goals: list[int], prm: IKParams):
         if P.get("tip"):
             P["mode"], P["c1"], P["c2"] = 3, -1, -1
         elif not kids and P["body"] in tip_of:
-            P["mode"], P["c1"], P["c2"] = 0, tip_of[P["body"]], -1
+            b = P["body"]
+            # Frame from the tip and the parent's joint where braced, else the tip alone.
+            P["mode"], P["c1"], P["c2"] = (1, tip_of[b], brace[b]) if b in brace else (0, tip_of[b], -1)
         else:
             P["mode"] = 2 if not kids else (0 if len(kids) == 1 else 1)
             P["c1"] = lp_of[kids[0]] if kids else -1
@@ -574,7 +602,7 @@ def _build(c, goals: list[int], prm: IKParams):
         lp_con=i32([x["con"] for x in lp]), lp_attach=i32([x["attach"] for x in lp]),
         lp_mode=i32([x["mode"] for x in lp]), lp_c1=i32([x["c1"] for x in lp]), lp_c2=i32([x["c2"] for x in lp]),
         lp_goal=i32([x["goal"] for x in lp]),
-        lc_a=i32([x["a"] for x in lc]), lc_b=i32([x["b"] for x in lc]),
+        lc_a=i32([x["a"] for x in lc]), lc_b=i32([x["b"] for x in lc]), lc_goal=i32([x.get("goal", -1) for x in lc]),
         ag_pivot=i32(ag_pivot),
         ag_moved_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_moved])[:-1]] if ag_moved else []),
         ag_moved_num=i32([len(m) for m in ag_moved]),
@@ -596,7 +624,7 @@ def _build(c, goals: list[int], prm: IKParams):
         seg_v0=f64(seg_v0, 3), seg_a0=f64(seg_a0, 3), seg_v1=f64(seg_v1, 3), seg_a1=f64(seg_a1, 3),
         seg_rest_chord=f64(seg_chord, 1), seg_rest_twist=f64(seg_twist, 4),
         segbody_t=f64(segbody_t, 1), segbody_off=f64(segbody_off, 3), segbody_rot=f64(segbody_rot, 4),
-        dg_chord=f64([x["chord"] for x in dg], 3),
+        dg_chord=f64([x["chord"] for x in dg], 3), dg_rel_rot=f64([x["rel_rot"] for x in dg], 4),
         lp_local=f64([x["local"] for x in lp], 3), lp_init_local=f64([x["init"] for x in lp], 3),
         lp_rot_local=f64([x["rot_local"] for x in lp], 4),
         lc_len=f64([x["len"] for x in lc], 1), lc_lo=f64([1.0] * len(lc), 1), lc_hi=f64([1.0] * len(lc), 1),
