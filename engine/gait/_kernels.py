@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 STANCE, FLIGHT, LANDING, OWNED = 0, 1, 2, 3
@@ -52,7 +51,8 @@ def _predict(px, py, yaw, vx, vy, omega, t):
 @njit(cache=True)
 def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
-              step_progress, step_prev_u, step_parked, step_lift_u, foot_body, foot_neutral, foot_world, foot_lift, foot_yaw,
+              step_progress, step_prev_u, step_parked, step_lift_u, foot_body, foot_neutral, foot_world, foot_lift,
+              foot_yaw,
               foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
     """Stage 1 of a frame (see the module docstring).
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from engine.errors import MenagerieError
 from engine.gait import _kernels as K
-from engine.gait.rig import MAX_CROUCH, NCROUCH, GaitRig, analyze
+from engine.gait.rig import GaitRig, analyze
 from engine.gait.style import PATH_SAMPLES, GaitStyle, GaitStyleError, load_style
 from engine.model.creature import Creature
 
@@ -116,20 +116,26 @@ class GaitController:
         self._lean = np.zeros(2)
         self._prev_v = np.zeros(2)
         self._started = False
-        #: Share of the geometric sweep the IK meets exactly, per group (see ``_calibrate``).
-        self.group_sweep_scale = np.ones(G)
-        self.group_sweep_table = r.group_sweep.copy()
+        #: IK-calibrated half-sweep per group (m) at the crouches ``_cal_crouch`` (m), and
+        #: the crouch the creature needs at least (m); see ``_calibrate``.
+        self._cal_crouch = np.array([0.0, 0.04, 0.08, 0.12, 0.17, 0.23, 0.3]) * (
+            float(np.max(r.group_length)) if r.ngroup else 0.0)
+        self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0]))
+        self.min_crouch = 0.0
+        self.max_crouch = math.inf
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
 
-    def _calibrate(self, tol: float = 2e-4, tries: int = 10) -> None:
-        """Shrink each group's allowed sweep until the IK meets the stance goals it implies
-        (every foot of the group displaced together along +-x and +-y by the sweep, the
-        hips crouched as the gait crouches them) within ``tol`` metres. The geometric
-        sweep of ``rig`` assumes each leg bends freely; branching legs (whose feet keep
-        their relative positions) and single-segment legs reach less, and this measures
-        it with the solver itself."""
+    def _calibrate(self, tol: float = 2e-4, tries: int = 12) -> None:
+        """Measure with the IK itself how far each group's feet may sweep from their rest
+        spots (every foot of the group displaced together along +-x and +-y, as the body
+        moves over planted feet) while the solver still meets them within ``tol`` m, at a
+        few crouch depths of the hips; then pick the least crouch that gives every group
+        the most sweep relative to its leg length. The geometric reach of ``rig`` assumes
+        each leg bends freely; branching legs (whose feet keep their relative positions),
+        single-segment legs and spines reach less, and crouching helps some legs while it
+        jams others, so the solver decides."""
         from engine.ik import IKGoals, plan_for, solve_ik
 
         c, r = self.creature, self.rig
@@ -139,45 +145,76 @@ class GaitController:
         out_p = np.zeros((c.nbody, 3))
         out_r = np.zeros((c.nbody, 4))
         out_r[:, 0] = 1.0
-        for g in range(r.ngroup):
-            Lg = r.group_length[g]
-            crouch_share = max(float(self._params(g, 0.0)[7]), float(r.group_min_crouch[g]))
-            sweep = _interp_sweep(r.group_sweep[g], crouch_share)
+        fb = r.foot_body
+
+        def error(root_drop: float, feet, dx: float, dy: float, alternate: bool = False, lift: float = 0.0) -> float:
+            goals.clear()
+            for f in range(r.nfoot):
+                p = r.foot_neutral[f].copy()
+                if f in feet:
+                    # alternate: every other stepper (by rank) the other way and lifted, as
+                    # stance and flight feet are while walking
+                    odd = alternate and r.step_rank[r.foot_stepper[f]] % 2 == 1
+                    sign = -1.0 if odd else 1.0
+                    p[0] += sign * dx
+                    p[1] += sign * dy
+                    if odd:
+                        p[2] += lift
+                goals.set(int(fb[f]), p, r.foot_rest_rot[f], 1.0, 1.0)
             root = c.body_rest_pos[0].copy()
-            root[2] -= crouch_share * Lg
-            feet = np.flatnonzero(r.step_group[r.foot_stepper] == g)
-            scale = 1.0
-            for _ in range(tries):
-                d = 0.97 * sweep * scale
-                worst = 0.0
-                for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)):
-                    goals.clear()
-                    for f in range(r.nfoot):
-                        b = int(r.foot_body[f])
-                        p = r.foot_neutral[f].copy()
-                        if f in feet:
-                            p[0] += dx
-                            p[1] += dy
-                        goals.set(b, p, r.foot_rest_rot[f], 1.0, 1.0)
-                    rt = root.copy()
-                    rigid = [f for f in feet if r.foot_rigid[f]]
-                    if rigid:
-                        # compass legs: the hips sit at leg's length above the displaced feet
-                        dz = []
-                        for f in rigid:
-                            j = goals.goal_pos[r.foot_body[f]] + r.foot_jointrel[f]
-                            h = c.body_rest_pos[0] + r.foot_hip[f]
-                            need = math.sqrt(max(r.foot_chain[f] ** 2 - (h[0] - j[0]) ** 2 - (h[1] - j[1]) ** 2, 0))
-                            dz.append(j[2] + need - h[2])
-                        rt[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
-                    solve_ik(plan, rt, c.body_rest_rot[0], goals, out_p, out_r, scratch)
-                    err = np.linalg.norm(out_p[r.foot_body[feet]] - goals.goal_pos[r.foot_body[feet]], axis=1)
-                    worst = max(worst, float(np.max(err)))
-                if worst <= tol or d < 1e-4:
-                    break
-                scale *= 0.8
-            self.group_sweep_scale[g] = scale
-            self.group_sweep_table[g] = r.group_sweep[g] * scale
+            root[2] -= root_drop
+            rigid = [f for f in range(r.nfoot) if r.foot_rigid[f]]
+            if rigid:
+                # compass legs: the hips sit at leg's length above the planted feet
+                dz = []
+                for f in rigid:
+                    j = goals.goal_pos[fb[f]] + r.foot_jointrel[f]
+                    h = c.body_rest_pos[0] + r.foot_hip[f]
+                    need = math.sqrt(max(r.foot_chain[f] ** 2 - (h[0] - j[0]) ** 2 - (h[1] - j[1]) ** 2, 0.0))
+                    dz.append(j[2] + need - h[2])
+                root[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
+            solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
+            return float(np.max(np.linalg.norm(out_p[fb] - goals.goal_pos[fb], axis=1)))
+
+        groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
+        for k, drop in enumerate(self._cal_crouch):
+            if error(drop, (), 0.0, 0.0) > tol:
+                continue                                   # the rest stance itself is out of reach
+            for g in range(r.ngroup):
+                d = 0.5 * r.group_length[g]
+                for _ in range(tries):
+                    e = 1.25 * d                           # a margin for bob, lean, tilt and turning
+                    lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
+                    worst = max(error(drop, groups_feet[g], dx, dy, alt, lift)
+                                for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e)) for alt in (False, True))
+                    if worst <= tol:
+                        break
+                    d *= 0.7
+                else:
+                    d = 0.0
+                self._cal_sweep[g, k] = d
+        score = np.min(self._cal_sweep / r.group_length[:, None], axis=0)
+        best = float(np.max(score))
+        k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else 0
+        self.min_crouch = float(self._cal_crouch[k])
+        # ... and the deepest crouch (a sneak, a heavy gait) that keeps every group able to step
+        top = k
+        while top + 1 < len(score) and score[top + 1] >= 0.5 * best and best > 0:
+            top += 1
+        self.max_crouch = float(self._cal_crouch[top])
+        # no shallower crouch than the chosen one is used, so the table starts there
+        self._cal_sweep[:, :k] = self._cal_sweep[:, k:k + 1]
+
+    def _sweep(self, g: int, crouch: float) -> float:
+        """Calibrated half-sweep (m) of group g at hip crouch ``crouch`` (m)."""
+        cc = self._cal_crouch
+        if crouch <= cc[0]:
+            return float(self._cal_sweep[g, 0])
+        for k in range(cc.shape[0] - 1):
+            if crouch <= cc[k + 1]:
+                a = (crouch - cc[k]) / (cc[k + 1] - cc[k])
+                return float(self._cal_sweep[g, k] * (1 - a) + self._cal_sweep[g, k + 1] * a)
+        return float(self._cal_sweep[g, -1])
 
     # -- control -------------------------------------------------------------------------
 
@@ -334,8 +371,8 @@ class GaitController:
         self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
         self._tilt[:] = 0.0
         # start crouched as the style wants at rest (straight legs must bend to step)
-        self._crouch = max((max(self._params(g, 0.0)[7], r.group_min_crouch[g]) * r.group_length[g]
-                            for g in range(r.ngroup)), default=0.0)
+        self._crouch = min(max((max(self._params(g, 0.0)[7] * r.group_length[g], self.min_crouch)
+                                for g in range(r.ngroup)), default=0.0), self.max_crouch)
         self._lean[:] = 0.0
         self._last_place[:] = place_pos
         self._started = True
@@ -352,7 +389,6 @@ class GaitController:
             # first frame, or the game moved the character itself: plant afresh
             self._start(place_pos, yaw_now)
         self._time += dt
-        G = len(self._layers)
         L = float(np.max(r.group_length)) if r.ngroup else max(float(self.creature.size[2]), 0.1)
 
         # 1. speed limit (no overreach) and acceleration-limited root motion
@@ -362,8 +398,8 @@ class GaitController:
             cap = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3)) * r.group_ratio[g]
             top = self._layers[g][0][0].table[-1, 0]
             p = self._params(g, top)
-            crouch = max(p[7], r.group_min_crouch[g]) * Lg
-            sweep = _interp_sweep(self.group_sweep_table[g], crouch / max(Lg, 1e-9))
+            sweep = min(self._sweep(g, min(max(p[7] * Lg, self.min_crouch), self.max_crouch)),
+                        self._sweep(g, self._crouch))
             stride_max = 1.6 * sweep / max(p[2], 0.05)
             limit = min(limit, cap * min(p[1] * Lg, stride_max), top * Lg * 1.25)
         self.speed_limit = limit
@@ -408,10 +444,9 @@ class GaitController:
             Lg = r.group_length[g]
             v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
             p = self._params(g, v_eff / Lg)
-            crouch = max(p[7], r.group_min_crouch[g]) * Lg
-            sweep = _interp_sweep(self.group_sweep_table[g], crouch / max(Lg, 1e-9))
+            sweep = self._sweep(g, self._crouch)
             duty = p[2]
-            stride = min(p[1] * Lg, 1.6 * sweep / duty) if sweep > 0 else p[1] * Lg
+            stride = min(p[1] * Lg, 1.6 * sweep / duty)
             f_g = v_eff / max(stride, 1e-6)
             settle = 0.5 * self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
             if not idle:
@@ -438,7 +473,8 @@ class GaitController:
             K.gait_plan(dt, self._place3, self._vel3, idle, self.group_rate, self.group_phase, self.group_duty,
                         self.group_sweep, self.group_park, self.path, r.step_group, self.step_trigger,
                         self.step_duty_scale, r.step_foot_adr, r.step_foot_num, self.step_state,
-                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, r.foot_body, r.foot_neutral,
+                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, r.foot_body,
+                        r.foot_neutral,
                         self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                         self.foot_target_yaw, goal_pw, q)
         # ground under the centre and four points around it (slope at the body's scale)
@@ -482,11 +518,11 @@ class GaitController:
         _pitch_roll_into(pitch, roll, self._root_dq)
         _pitch_roll_into(-math.atan(self._tilt[0]), math.atan(self._tilt[1]), self._foot_tilt)
         # crouch: the style's, low-pass filtered
-        want = 0.0
+        want = self.min_crouch
         for g in range(r.ngroup):
             v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
-            share = max(self._params(g, v_eff / r.group_length[g])[7], r.group_min_crouch[g])
-            want = max(want, share * r.group_length[g])
+            want = max(want, self._params(g, v_eff / r.group_length[g])[7] * r.group_length[g])
+        want = min(want, self.max_crouch)
         self._crouch += a_t * (want - self._crouch)
         self._root_dpos[2] = -self._crouch
         if r.mode == "crawl":
@@ -541,13 +577,6 @@ def _interp_into(t: np.ndarray, x: float, out: np.ndarray) -> None:
     k = _bracket(t[:, 0], x)
     for j in range(8):
         out[j] = _lerp_col(t, k, x, j)
-
-
-def _interp_sweep(table: np.ndarray, crouch_share: float) -> float:
-    x = min(max(crouch_share / MAX_CROUCH, 0.0), 1.0) * (NCROUCH - 1)
-    i = min(int(x), NCROUCH - 2)
-    a = x - i
-    return float(table[i] * (1 - a) + table[i + 1] * a)
 
 
 def _pitch_roll_into(pitch: float, roll: float, out: np.ndarray) -> None:

@@ -87,7 +87,6 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
     prev_root = None
     prev_root_v = None
     prev_feet = None
-    t_gait = 0.0
     t_all = 0.0
     warm = 10
     for i in range(nsteps):

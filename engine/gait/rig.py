@@ -187,7 +187,8 @@ def _empty_rig(c: Creature) -> GaitRig:
     i0 = np.zeros(0, np.int32)
     return GaitRig(mode="float", foot_body=i0, foot_stepper=i0, foot_neutral=np.zeros((0, 3)), foot_offset=z0,
                    foot_rest_rot=np.zeros((0, 4)), foot_hip=np.zeros((0, 3)), foot_jointrel=np.zeros((0, 3)),
-                   foot_reach=z0, foot_chain=z0, foot_rigid=i0, step_foot_adr=i0, step_foot_num=i0, step_group=i0, step_side=z0,
+                   foot_reach=z0, foot_chain=z0, foot_rigid=i0, step_foot_adr=i0, step_foot_num=i0, step_group=i0,
+                   step_side=z0,
                    step_rank=i0, group_length=z0, group_ratio=z0, group_ratio_pq=(), group_radius=z0,
                    group_sweep=np.zeros((0, NCROUCH)), group_min_crouch=z0, float_height=float(max(c.size[2], 1e-3)))
 
