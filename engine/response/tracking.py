@@ -531,7 +531,7 @@ def track(rig: MocapRig, params: TrackingParams | None = None, *, scales=(), pro
     accumulate(0)
     for f in range(1, nf):
         # paper eq. 1: between frames f-1 and f, aim at the velocity of frame f
-        state.body_track_vel[:] = vel[f] * ktable[f][:, None]
+        np.multiply(vel[f], ktable[f][:, None], out=state.body_track_vel)
         state.body_track_gain[:] = gains
         goal = int(round(f * ft / params.dt))
         n = goal - done
