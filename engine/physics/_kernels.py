@@ -811,42 +811,47 @@ def _warm_start(m, s):
 
 
 @njit(cache=True)
-def _invert_into(A, d, out, work):
-    """out[:d, :d] = A[:d, :d]^-1 by Gauss-Jordan with partial pivoting (work: (6, 12));
-    a singular block gives zeros (a joint between two fixed bodies does nothing)."""
-    for r in range(d):
-        for c in range(d):
-            work[r, c] = A[r, c]
-            work[r, d + c] = 1.0 if r == c else 0.0
-    for col in range(d):
-        piv = col
-        best = abs(work[col, col])
-        for r in range(col + 1, d):
-            if abs(work[r, col]) > best:
-                best = abs(work[r, col])
-                piv = r
-        if best < 1e-300:
+def _invert_sym_into(A, d, out, work):
+    """out[:d, :d] = A[:d, :d]^-1 for a symmetric definite block (positive for bodies,
+    negative for joints: the tree's blocks are one or the other, so LDL^T needs no
+    pivoting). A = L D L^T, then A^-1 = L^-T D^-1 L^-1, about a sixth of Gauss-Jordan's
+    work. work: (6, 12): L in [:, :6], L^-1 in [:, 6:]. A (near) zero pivot gives zeros
+    (a joint between two fixed bodies does nothing)."""
+    for j in range(d):
+        dj = A[j, j]
+        for k in range(j):
+            dj -= work[j, k] * work[j, k] * work[k, k]
+        if abs(dj) < 1e-300:
             for r in range(d):
                 for c in range(d):
                     out[r, c] = 0.0
             return
-        if piv != col:
-            for c in range(2 * d):
-                t = work[col, c]
-                work[col, c] = work[piv, c]
-                work[piv, c] = t
-        inv = 1.0 / work[col, col]
-        for c in range(2 * d):
-            work[col, c] *= inv
+        work[j, j] = dj                       # D on the diagonal of the L block
+        for i in range(j + 1, d):
+            v = A[i, j]
+            for k in range(j):
+                v -= work[i, k] * work[j, k] * work[k, k]
+            work[i, j] = v / dj
+    # L^-1 (unit lower triangular)
+    for c in range(d):
         for r in range(d):
-            if r != col:
-                f = work[r, col]
-                if f != 0.0:
-                    for c in range(2 * d):
-                        work[r, c] -= f * work[col, c]
-    for r in range(d):
-        for c in range(d):
-            out[r, c] = work[r, d + c]
+            if r < c:
+                work[r, 6 + c] = 0.0
+            elif r == c:
+                work[r, 6 + c] = 1.0
+            else:
+                v = 0.0
+                for k in range(c, r):
+                    v -= work[r, k] * work[k, 6 + c]
+                work[r, 6 + c] = v
+    # A^-1[i, j] = sum_k L^-1[k, i] L^-1[k, j] / D_k
+    for i in range(d):
+        for j in range(i, d):
+            v = 0.0
+            for k in range(j, d):
+                v += work[k, 6 + i] * work[k, 6 + j] / work[k, k]
+            out[i, j] = v
+            out[j, i] = v
 
 
 @njit(cache=True)
@@ -954,7 +959,7 @@ def _factor_tree(m, s, h):
     for k in range(m.node_order.shape[0] - 1, -1, -1):
         i = m.node_order[k]
         d = s.node_dim[i]
-        _invert_into(D[i], d, s.node_Dinv[i], s.node_work)
+        _invert_sym_into(D[i], d, s.node_Dinv[i], s.node_work)
         p = m.node_parent[i]
         if p < 0:
             continue
