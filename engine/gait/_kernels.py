@@ -51,9 +51,8 @@ def _predict(px, py, yaw, vx, vy, omega, t):
 @njit(cache=True)
 def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
-              step_progress, step_prev_u, step_parked, step_lift_u, foot_body, foot_neutral, foot_world, foot_lift,
-              foot_yaw,
-              foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
+              step_progress, step_prev_u, step_parked, step_lift_u, step_done, foot_body, foot_neutral,
+              foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
     """Stage 1 of a frame (see the module docstring).
 
     place (3,)     new placement x, y, heading yaw (world)
@@ -62,7 +61,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
     group_* (G,)   cycle rate (cycles/s), phase (in/out), duty factor, allowed half-sweep (m),
                    parking tolerance (m); path (G, NS, 3) the normalized flight path
     step_* (S,)    group, trigger, duty scale, foot range, state/progress/previous cycle
-                   position/parked/cycle position at lift-off (in/out); a flight always ends at
+                   position/parked/cycle position at lift-off/lifted this cycle (in/out); a flight always ends at
                    the end of the stepper's cycle, so a rescue step does not drift out of phase
     foot_* (F, .)  body, rest spot (character space), world position, lift-off position,
                    world yaw, lift-off yaw, touchdown target (x, y written here), target yaw
@@ -84,6 +83,8 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
         u = (group_phase[g] - step_trigger[s]) % 1.0
         prev = step_prev_u[s]
         step_prev_u[s] = u
+        if u < prev:                              # a new cycle of this stepper begins
+            step_done[s] = 0
         owned = False
         for f in range(a0, a1):
             if goal_pw[foot_body[f]] > 0.0:
@@ -96,6 +97,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
             step_progress[s] = 0.0
             step_parked[s] = 0
             step_lift_u[s] = u
+            step_done[s] = 1
             for f in range(a0, a1):
                 for j in range(3):
                     foot_lift[f, j] = foot_world[f, j]
@@ -107,11 +109,14 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
             ny = py + sy * foot_neutral[f, 0] + cy * foot_neutral[f, 1]
             disp = max(disp, math.hypot(foot_world[f, 0] - nx, foot_world[f, 1] - ny))
         if step_state[s] == STANCE:
-            crossed = (prev < duty <= u) if prev <= u else (duty > prev or duty <= u)
+            # lift-off once per cycle, once the cycle passes the duty factor (the duty factor
+            # moves with speed, so this is a window, not a crossing)
+            crossed = u >= duty and step_done[s] == 0
             lift = False
             if crossed:
                 if idle and disp <= group_park[g]:
                     step_parked[s] = 1           # standing still and already home: stay planted
+                    step_done[s] = 1
                 else:
                     lift = True
             if not lift and disp > group_sweep[g] and not (idle and step_parked[s] == 1):
@@ -121,6 +126,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 step_progress[s] = 0.0
                 step_parked[s] = 0
                 step_lift_u[s] = min(u, duty) if crossed else u
+                step_done[s] = 1
                 for f in range(a0, a1):
                     for j in range(3):
                         foot_lift[f, j] = foot_world[f, j]
@@ -144,10 +150,27 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 qx, qy, qyaw = px, py, yaw
             cq, sq = math.cos(qyaw), math.sin(qyaw)
             fw, up, pitch = _path_at(path, g, step_progress[s])
+            # never aim further from the rest spot under the placement at touchdown than
+            # most of the allowed sweep (a foot landing there would need a rescue step at once)
+            lx, ly, lyaw = _predict(px, py, yaw, vel[0], vel[1], vel[2], t_left)
+            if idle:
+                lx, ly, lyaw = px, py, yaw
+            cl, sl = math.cos(lyaw), math.sin(lyaw)
+            k = 1.0
             for f in range(a0, a1):
-                foot_target[f, 0] = qx + cq * foot_neutral[f, 0] - sq * foot_neutral[f, 1]
-                foot_target[f, 1] = qy + sq * foot_neutral[f, 0] + cq * foot_neutral[f, 1]
-                foot_target_yaw[f] = qyaw
+                tx = qx + cq * foot_neutral[f, 0] - sq * foot_neutral[f, 1]
+                ty = qy + sq * foot_neutral[f, 0] + cq * foot_neutral[f, 1]
+                nx = lx + cl * foot_neutral[f, 0] - sl * foot_neutral[f, 1]
+                ny = ly + sl * foot_neutral[f, 0] + cl * foot_neutral[f, 1]
+                d = math.hypot(tx - nx, ty - ny)
+                if d > 0.85 * group_sweep[g]:
+                    k = min(k, 0.85 * group_sweep[g] / d)
+            for f in range(a0, a1):
+                nx = lx + cl * foot_neutral[f, 0] - sl * foot_neutral[f, 1]
+                ny = ly + sl * foot_neutral[f, 0] + cl * foot_neutral[f, 1]
+                foot_target[f, 0] = nx + k * (qx + cq * foot_neutral[f, 0] - sq * foot_neutral[f, 1] - nx)
+                foot_target[f, 1] = ny + k * (qy + sq * foot_neutral[f, 0] + cq * foot_neutral[f, 1] - ny)
+                foot_target_yaw[f] = lyaw + k * (qyaw - lyaw)
                 query[f, 0] = foot_target[f, 0]
                 query[f, 1] = foot_target[f, 1]
                 query[nfoot + f, 0] = foot_lift[f, 0] + fw * (foot_target[f, 0] - foot_lift[f, 0])

@@ -97,6 +97,7 @@ class GaitController:
         self.step_prev_u = np.zeros(S)
         self.step_parked = np.ones(S, np.int32)
         self.step_lift_u = np.zeros(S)
+        self.step_done = np.zeros(S, np.int32)
         self.foot_world = np.zeros((F, 3))
         self.foot_lift = np.zeros((F, 3))
         self.foot_yaw = np.zeros(F)
@@ -123,6 +124,9 @@ class GaitController:
         self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0]))
         self.min_crouch = 0.0
         self.max_crouch = math.inf
+        #: Groups whose legs are all single rigid segments walk a compass gait.
+        self._compass = [bool(r.nfoot) and bool(np.all(r.foot_rigid[r.step_group[r.foot_stepper] == g]))
+                         for g in range(G)]
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
@@ -149,6 +153,10 @@ class GaitController:
 
         def error(root_drop: float, feet, dx: float, dy: float, alternate: bool = False, lift: float = 0.0) -> float:
             goals.clear()
+            # lifted compass feet swing on their sphere in the gait: they neither hold the
+            # hips nor count as misses here
+            skip = [f for f in range(r.nfoot) if alternate and lift > 0 and f in feet and r.foot_rigid[f]
+                    and r.step_rank[r.foot_stepper[f]] % 2 == 1]
             for f in range(r.nfoot):
                 p = r.foot_neutral[f].copy()
                 if f in feet:
@@ -163,7 +171,7 @@ class GaitController:
                 goals.set(int(fb[f]), p, r.foot_rest_rot[f], 1.0, 1.0)
             root = c.body_rest_pos[0].copy()
             root[2] -= root_drop
-            rigid = [f for f in range(r.nfoot) if r.foot_rigid[f]]
+            rigid = [f for f in range(r.nfoot) if r.foot_rigid[f] and f not in skip]
             if rigid:
                 # compass legs: the hips sit at leg's length above the planted feet
                 dz = []
@@ -174,7 +182,9 @@ class GaitController:
                     dz.append(j[2] + need - h[2])
                 root[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
             solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
-            return float(np.max(np.linalg.norm(out_p[fb] - goals.goal_pos[fb], axis=1)))
+            miss = np.linalg.norm(out_p[fb] - goals.goal_pos[fb], axis=1)
+            miss[skip] = 0.0
+            return float(np.max(miss))
 
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
         for k, drop in enumerate(self._cal_crouch):
@@ -185,8 +195,10 @@ class GaitController:
                 for _ in range(tries):
                     e = 1.25 * d                           # a margin for bob, lean, tilt and turning
                     lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
-                    worst = max(error(drop, groups_feet[g], dx, dy, alt, lift)
-                                for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e)) for alt in (False, True))
+                    # same way, alternating with every other stepper lifted, alternating all planted
+                    worst = max(error(drop, groups_feet[g], dx, dy, alt, h)
+                                for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e))
+                                for alt, h in ((False, 0.0), (True, lift), (True, 0.0)))
                     if worst <= tol:
                         break
                     d *= 0.7
@@ -368,6 +380,7 @@ class GaitController:
         self.foot_yaw[:] = yaw
         self.step_state[:] = K.STANCE
         self.step_parked[:] = 1
+        self.step_done[:] = 0
         self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
         self._tilt[:] = 0.0
         # start crouched as the style wants at rest (straight legs must bend to step)
@@ -473,7 +486,8 @@ class GaitController:
             K.gait_plan(dt, self._place3, self._vel3, idle, self.group_rate, self.group_phase, self.group_duty,
                         self.group_sweep, self.group_park, self.path, r.step_group, self.step_trigger,
                         self.step_duty_scale, r.step_foot_adr, r.step_foot_num, self.step_state,
-                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, r.foot_body,
+                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, self.step_done,
+                        r.foot_body,
                         r.foot_neutral,
                         self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                         self.foot_target_yaw, goal_pw, q)
