@@ -114,8 +114,12 @@ def limb_lengths_ok(c, s):
         if con < 0:
             continue
         b, pb = a.lp_body[i], a.lp_body[a.lp_parent[i]]
-        L = np.linalg.norm(joint_world(c, s.out_pos, s.out_rot, b) - joint_world(c, s.out_pos, s.out_rot, pb))
         rest = a.lc_len[con]
+        if a.lp_mode[i] == 3:  # a tip: the body's origin, rigid on its joint
+            L = np.linalg.norm(s.out_pos[b] - joint_world(c, s.out_pos, s.out_rot, b))
+            assert abs(L - rest) <= 1e-9 * max(1.0, rest)
+            continue
+        L = np.linalg.norm(joint_world(c, s.out_pos, s.out_rot, b) - joint_world(c, s.out_pos, s.out_rot, pb))
         assert p.limb_shrink * rest - 1e-9 <= L <= p.limb_stretch * rest + 1e-9
 
 
@@ -142,7 +146,7 @@ def test_out_of_reach_points_at_goal_within_stretch(seed, direction_seed):
     for g, goal in goals.items():
         lr = c.limb_root[c.body_limb[g]]
         attach = joint_world(c, s.out_pos, s.out_rot, lr)
-        tip = s.out_pos[g]
+        tip = joint_world(c, s.out_pos, s.out_rot, g)  # the limb's end (the body keeps its rest angle)
         u, v = tip - attach, goal - attach
         cosang = u @ v / (np.linalg.norm(u) * np.linalg.norm(v))
         assert cosang > math.cos(math.radians(15.0)), f"{c.body_names[g]} does not point at its goal"

@@ -62,7 +62,7 @@ INT_FIELDS = (
     "goal_lpj",            # (ngoal,) the goal body's joint particle when goal_lp is its tip, else -1
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
                            # body's goal held at its origin (self-delegated), else -1
-    "scratch_layout",      # (9,) first row of each scratch block (see ``_scratch_views``)
+    "scratch_layout",      # (10,) first row of each scratch block (see ``_scratch_views``)
 )
 FLOAT_FIELDS = (
     ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
@@ -72,6 +72,7 @@ FLOAT_FIELDS = (
     ("sc_lo", 1), ("sc_hi", 1),      # free range as a fraction of the rest length
     ("sc_plo", 1), ("sc_phi", 1),    # projection range at reconstruction
     ("sc_inva", 1), ("sc_invb", 1),  # inverse mass of each endpoint
+    ("sc_stiff", 1),       # share of the correction applied per sweep
     ("bp_sign1", 1),       # -1 when c1 runs the other way (the other side of the root)
     ("bp_rest_angle", 1),  # angle between the two constraints in the rest pose, rad
     ("ch_rest_tangent", 3),  # root-relative rest tangent at each chain particle
@@ -99,9 +100,9 @@ P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
 P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
 NPARAM = 12
 
-# Scratch blob slots: sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state,
-# dg_target.
-NSCRATCH = 9
+# Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
+# state, dg_target, sp_acc.
+NSCRATCH = 10
 
 EPS = 1e-12
 
@@ -396,6 +397,28 @@ def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slop
 
 
 @njit(cache=True, inline="always")
+def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
+    """The moves ``relax_constraint`` would make, returned instead of applied (for the
+    simultaneous update of several goals pulling one particle)."""
+    zero = (0.0, 0.0, 0.0)
+    wa = inva * inv[a]
+    wb = invb * inv[b]
+    wsum = wa + wb
+    if wsum <= 0.0:
+        return zero, zero
+    d = (pos[b, 0] - pos[a, 0], pos[b, 1] - pos[a, 1], pos[b, 2] - pos[a, 2])
+    L = vnorm(d)
+    if L < EPS or length <= 0.0:
+        return zero, zero
+    target = min(max(L, lo * length), hi * length)
+    e = (L - target) / length
+    if e == 0.0:
+        return zero, zero
+    corr = stiffness * soft_response(e, slope, band, width) * length / (L * wsum)
+    return vscale(d, wa * corr), vscale(d, -wb * corr)
+
+
+@njit(cache=True, inline="always")
 def project_length(pos, parent, child, length, plo, phi):
     """Projection of reconstruction: put ``child`` on the ray from ``parent`` at a length
     within [plo, phi] * length (section 4.3.2, "Reconstruction")."""
@@ -439,11 +462,12 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
         _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7), _f(pi, pf, 8), _f(pi, pf, 9),
         _f(pi, pf, 10), _f(pi, pf, 11), _f(pi, pf, 12), _f(pi, pf, 13), _f(pi, pf, 14),
-        _f(pi, pf, 15), _f(pi, pf, 16), _f(pi, pf3, 17), _f(pi, pf3, 18), _f(pi, pf3, 19),
-        _f(pi, pf3, 20), _f(pi, pf3, 21), _f(pi, pf, 22), _f(pi, pf4, 23), _f(pi, pf, 24),
-        _f(pi, pf3, 25), _f(pi, pf4, 26), _f(pi, pf3, 27), _f(pi, pf4, 28), _f(pi, pf3, 29),
-        _f(pi, pf3, 30), _f(pi, pf4, 31), _f(pi, pf, 32), _f(pi, pf, 33), _f(pi, pf, 34),
+        _f(pi, pf, 15), _f(pi, pf, 16), _f(pi, pf, 17), _f(pi, pf3, 18), _f(pi, pf3, 19),
+        _f(pi, pf3, 20), _f(pi, pf3, 21), _f(pi, pf3, 22), _f(pi, pf, 23), _f(pi, pf4, 24),
+        _f(pi, pf, 25), _f(pi, pf3, 26), _f(pi, pf4, 27), _f(pi, pf3, 28), _f(pi, pf4, 29),
+        _f(pi, pf3, 30), _f(pi, pf3, 31), _f(pi, pf4, 32), _f(pi, pf, 33), _f(pi, pf, 34),
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
+        _f(pi, pf, 40),
     )
 
 
@@ -466,7 +490,8 @@ def _scratch_views(P, scratch):
     ch_tan = scratch[lay[6]:lay[6] + nch]
     state = scratch[lay[7], :]
     dg_target = scratch[lay[8]:lay[8] + ndg]
-    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target
+    sp_acc = scratch[lay[9]:lay[9] + nsp]
+    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc
 
 
 # -- the solve ------------------------------------------------------------------------
@@ -533,7 +558,7 @@ def _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
 
 @njit(cache=True)
 def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
-                 state):
+                 state, sp_acc):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
     goals, spine constraints between branch points) leaves inward, 5 outer iterations,
     watching for buckling and blending toward the rest pose when it happens."""
@@ -542,6 +567,9 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
     nsp = P.sp_kind.shape[0]
     # Initialization: every particle at the root-relative rest pose, carried by the root.
     for i in range(nsp):
+        sp_acc[i, 0] = 0.0
+        sp_acc[i, 1] = 0.0
+        sp_acc[i, 2] = 0.0
         set3(sp_pos, i, vadd(root_pos, qrot(root_rot, v3(P.sp_rest, i))))
         k = P.sp_kind[i]
         sp_inv[i] = 0.0 if (k == 0 or k == 3) else 1.0
@@ -563,13 +591,31 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
         for _inner in range(n_inner):
             for c in range(nsc):
                 kind = P.sc_kind[c]
+                if kind == 1 or kind == 2:
+                    # Goals pulling a spine particle act together (Jacobi): each pull is
+                    # summed and applied after the sweep, each weighted 1/k by the plan,
+                    # so conflicting goals settle between them whatever their order.
+                    da, db = relax_delta(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], P.sc_len[c], P.sc_lo[c],
+                                         P.sc_hi[c], P.sc_inva[c], P.sc_invb[c], P.sc_stiff[c], slope, band,
+                                         width)
+                    b = P.sc_b[c]
+                    set3(sp_pos, b, vadd(v3(sp_pos, b), db))
+                    a = P.sc_a[c]
+                    set3(sp_acc, a, vadd(v3(sp_acc, a), da))
+                    continue
+                if kind == 0:
+                    # Before a spine constraint moves a particle, its pending pulls land.
+                    _flush_acc(sp_pos, sp_acc, P.sc_a[c])
+                    _flush_acc(sp_pos, sp_acc, P.sc_b[c])
                 if kind == 3:
                     if buckle > 0.0:
                         relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], 0.0, 1.0, 1.0,
                                          P.sc_inva[c], P.sc_invb[c], buckle, slope, band, width)
                     continue
                 relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], P.sc_len[c], P.sc_lo[c],
-                                 P.sc_hi[c], P.sc_inva[c], P.sc_invb[c], 1.0, slope, band, width)
+                                 P.sc_hi[c], P.sc_inva[c], P.sc_invb[c], P.sc_stiff[c], slope, band, width)
+            for i in range(nsp):
+                _flush_acc(sp_pos, sp_acc, i)
             # Goals with weight below 1 are pulled back toward their goal after each sweep.
             for gi in range(P.goal_body.shape[0]):
                 i = P.goal_sp[gi]
@@ -583,6 +629,15 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                            / (prm[P_BUCKLE_FULL] - prm[P_BUCKLE_ON]))
             buckle = max(buckle, b)
     state[0] = buckle
+
+
+@njit(cache=True, inline="always")
+def _flush_acc(sp_pos, sp_acc, i):
+    if sp_acc[i, 0] != 0.0 or sp_acc[i, 1] != 0.0 or sp_acc[i, 2] != 0.0:
+        set3(sp_pos, i, vadd(v3(sp_pos, i), v3(sp_acc, i)))
+        sp_acc[i, 0] = 0.0
+        sp_acc[i, 1] = 0.0
+        sp_acc[i, 2] = 0.0
 
 
 @njit(cache=True)
@@ -787,13 +842,30 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
         if nr < 1e-9 or ng < 1e-9:
             continue
         rot = qbetween(vr, vg)
-        stretch = ng / nr - 1.0
+        scale = ng / nr
         ghat = vscale(vg, 1.0 / ng)
+        # Squashing along v_g (goal closer than at rest) would flatten the chain onto the
+        # line, where the constraint iterations may fold it either way. Unlike the paper
+        # we also widen the chain across v_g so its segments keep their length on
+        # average: the rest bend grows (knees and elbows fold the way they bend at rest)
+        # and the fold is a smooth function of the goal distance.
+        widen = 1.0
+        if scale < 1.0:
+            h2 = 0.0
+            nm = P.ag_moved_num[g]
+            for j in range(P.ag_moved_adr[g], P.ag_moved_adr[g] + nm):
+                y = qrot(rot, vsub(v3(lp_pos, P.ag_moved[j]), piv))
+                yp = vsub(y, vscale(ghat, vdot(y, ghat)))
+                h2 += vdot(yp, yp)
+            h2 /= max(nm, 1)
+            if h2 > 1e-12 * nr * nr:
+                widen = min(math.sqrt(1.0 + (1.0 - scale * scale) * nr * nr / (4.0 * h2)), 10.0)
         for j in range(P.ag_moved_adr[g], P.ag_moved_adr[g] + P.ag_moved_num[g]):
             m = P.ag_moved[j]
             y = qrot(rot, vsub(v3(lp_pos, m), piv))
-            y = vadd(y, vscale(ghat, stretch * vdot(y, ghat)))
-            set3(lp_pos, m, vadd(piv, y))
+            along = vdot(y, ghat)
+            across = vsub(y, vscale(ghat, along))
+            set3(lp_pos, m, vadd(piv, vadd(vscale(ghat, scale * along), vscale(across, widen))))
     # Goal particles at their goals (weighted), then the constraint iterations.
     _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
                   int(prm[P_LIMB_INNER]))
@@ -908,8 +980,15 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
                     e2p = vsub(v3(lp_pos, c2), v3(lp_pos, i))
                     u = vsub(e2r, vscale(ax, vdot(e2r, ax)))
                     v = vsub(e2p, vscale(ax, vdot(e2p, ax)))
-                    if vnorm(u) > 1e-9 and vnorm(v) > 1e-9:
+                    nu = vnorm(u)
+                    nv = vnorm(v)
+                    if nu > 1e-9 and nv > 1e-9:
                         ang = math.atan2(vdot(ax, vcross(u, v)), vdot(u, v))
+                        # Where the two axes are (nearly) parallel the second one says
+                        # nothing about the twist: fade to the minimal twist so the frame
+                        # never jumps (sines below 0.05 ignore it, above 0.2 trust it).
+                        sin_lo = min(nu / (vnorm(e2r) + EPS), nv / (vnorm(e2p) + EPS))
+                        ang *= smoothstep((sin_lo - 0.05) / 0.15)
                         rot = qmul(qaxis_angle(ax, ang), rot)
         gi = P.lp_goal[i]
         if gi >= 0:
@@ -937,14 +1016,14 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
               scratch):
     """One whole solve: goals to joint targets, spine phase, root influence, spine
     reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
-    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target = _scratch_views(P, scratch)
+    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc = _scratch_views(P, scratch)
     rr = qnormalize(root_rot)
     _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint)
     _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target)
     root_rot_in = rr
     for _round in range(3):
         _spine_phase(P, root_pos, root_rot_in, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
-                     state)
+                     state, sp_acc)
         rr = _root_influence(P, root_pos, root_rot_in, sp_pos)
         _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                            out_pos, out_rot, state[0])
@@ -1057,7 +1136,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 48 + 40
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 48 + 41
 
 
 _check_layout()

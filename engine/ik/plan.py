@@ -364,6 +364,15 @@ def _build(c, goals: list[int], prm: IKParams):
             sc.append(dict(a=sp, b=p, kind=1, len=L, lo=lo, hi=max(1.0, reach / L), plo=lo,
                            phi=max(1.0, reach / L), inva=1.0, invb=1.0, depth=depth))
 
+    # Several goals pulling one spine particle: each moves it by its share, so a sweep
+    # in any order settles between them instead of at the last one processed.
+    pulls: dict[int, int] = {}
+    for x in sc:
+        if x["kind"] in (1, 2):
+            pulls[x["a"]] = pulls.get(x["a"], 0) + 1
+    for x in sc:
+        x["stiff"] = 1.0 / pulls[x["a"]] if x["kind"] in (1, 2) else 1.0
+
     # Anti-buckling anchors at each spine particle's rest position.
     for s in branch_bodies:
         sp = sp_of[s]
@@ -583,7 +592,7 @@ def _build(c, goals: list[int], prm: IKParams):
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
     f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
     nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
-    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg)]  # rows of 3
+    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg), nsp]  # rows of 3
     layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
     fields = dict(
         b_parent=i32(parent),
@@ -618,7 +627,7 @@ def _build(c, goals: list[int], prm: IKParams):
         sc_len=f64([x["len"] for x in sc], 1), sc_lo=f64([x["lo"] for x in sc], 1),
         sc_hi=f64([x["hi"] for x in sc], 1), sc_plo=f64([x["plo"] for x in sc], 1),
         sc_phi=f64([x["phi"] for x in sc], 1), sc_inva=f64([x["inva"] for x in sc], 1),
-        sc_invb=f64([x["invb"] for x in sc], 1),
+        sc_invb=f64([x["invb"] for x in sc], 1), sc_stiff=f64([x.get("stiff", 1.0) for x in sc], 1),
         bp_sign1=f64([x[1] for x in bp], 1), bp_rest_angle=f64([x[3] for x in bp], 1),
         ch_rest_tangent=f64(ch_tan, 3),
         seg_v0=f64(seg_v0, 3), seg_a0=f64(seg_a0, 3), seg_v1=f64(seg_v1, 3), seg_a1=f64(seg_a1, 3),
