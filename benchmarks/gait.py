@@ -9,8 +9,9 @@ measured on the runtime's output (``char.world_positions`` after the IK). Prints
 and ends with one JSON line: creatures, max_stance_slide_mm, max_touchdown_error_mm,
 max_below_ground_mm, max_stretch_ratio, max_root_accel (leg lengths/s^2), max_foot_speed
 (leg lengths/s), failures (creatures that crashed or produced non-finite output),
-gait_ms_per_character (the gait stage alone, mean over the creatures) and
-tick_ms_per_character (the whole tick).
+gait_ms_per_character (the gait stage alone, mean over the creatures),
+tick_ms_per_character (the whole tick) and immobile (creatures that covered less than one
+leg length: their gait found no stride the IK meets exactly, so they stand).
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ def main() -> None:
     failures = []
     t_start = time.perf_counter()
     print(f"{'creature':14s} {'mode':5s} {'legs':>4s} {'grp':>3s} {'slide':>7s} {'touch':>7s} {'below':>7s} "
-          f"{'stretch':>7s} {'rootacc':>7s} {'footv':>6s} {'gait':>6s} {'tick':>6s}  worst stance")
+          f"{'stretch':>7s} {'rootacc':>7s} {'footv':>6s} {'travel':>6s} {'gait':>6s} {'tick':>6s}  worst stance")
     for name, make in creatures(args.random, args.only):
         try:
             c = make()
@@ -70,6 +71,7 @@ def main() -> None:
                 m[k] = max(float(x[k]) for x in ms)
             worst = max(ms, key=lambda x: x["stance_slide_mm"])
             m["worst"] = worst["worst"]
+            m["travel"] = min(float(x["travel"]) for x in ms)
             m["finite"] = all(x["finite"] for x in ms)
             m["gait_ms"] = gait_ms(c)
             if not m["finite"]:
@@ -82,7 +84,8 @@ def main() -> None:
         rows.append(m)
         print(f"{name:14s} {m['mode']:5s} {m['legs']:4d} {m['groups']:3d} {m['stance_slide_mm']:7.3f} "
               f"{m['touchdown_error_mm']:7.3f} {m['below_ground_mm']:7.3f} {m['stretch_ratio']:7.3f} "
-              f"{m['root_accel']:7.2f} {m['foot_speed']:6.2f} {m['gait_ms']:6.3f} {m['tick_ms']:6.3f}  {m['worst']}",
+              f"{m['root_accel']:7.2f} {m['foot_speed']:6.2f} {m['travel']:6.2f} {m['gait_ms']:6.3f} "
+              f"{m['tick_ms']:6.3f}  {m['worst']}",
               flush=True)
     legged = [r for r in rows if r["mode"] != "float"]
     walkers = [r for r in rows if r["mode"] == "walk"]
@@ -100,6 +103,7 @@ def main() -> None:
         "max_root_accel": top("root_accel", rows),
         "max_foot_speed": top("foot_speed", walkers),
         "failures": failures,
+        "immobile": [r["creature"] for r in rows if r["mode"] != "float" and r["travel"] < 1.0],
         "gait_ms_per_character": round(float(np.mean([r["gait_ms"] for r in rows])) if rows else 0.0, 4),
         "tick_ms_per_character": round(float(np.mean([r["tick_ms"] for r in rows])) if rows else 0.0, 4),
         "seconds": round(time.perf_counter() - t_start, 1),

@@ -14,7 +14,10 @@ terrain scaled to the creature, and measures on ``char.world_positions`` (after 
 - ``root_accel``: the largest root acceleration, leg lengths per s^2 (continuity: the
   commanded velocity jumps, the root must not);
 - ``foot_speed``: the largest foot speed, leg lengths per s;
-- ``finite``: every output was finite.
+- ``finite``: every output was finite;
+- ``travel``: distance the character covered, in leg lengths (the command asks for about
+  7 leg lengths in 8 s; a gait that cannot step without its feet missing their goals
+  stands still instead, see ``GaitController._calibrate``).
 """
 
 from __future__ import annotations
@@ -79,11 +82,12 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
     out = {"creature": creature.name, "mode": rig.mode, "legs": creature.nleg, "groups": rig.ngroup,
            "stance_slide_mm": 0.0, "touchdown_error_mm": 0.0, "below_ground_mm": 0.0, "stretch_ratio": 0.0,
            "root_accel": 0.0, "foot_speed": 0.0, "finite": True, "stances": 0, "gait_ms": 0.0, "tick_ms": 0.0,
-           "worst": ""}
+           "worst": "", "travel": 0.0}
     # hip and foot joints for the stretch ratio (walkers only)
     if rig.mode == "walk":
         limb_root = np.array([int(creature.limb_root[creature.body_limb[f]]) for f in feet])
         chain = np.array([float(creature.body_limb_length[f]) for f in feet])
+    last_place = ch.position
     prev_root = None
     prev_root_v = None
     prev_feet = None
@@ -104,6 +108,9 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
             break
         # continuity of the root
         root = wp[0].copy()
+        pp = ch.position
+        out["travel"] += float(np.hypot(pp[0] - last_place[0], pp[1] - last_place[1])) / L
+        last_place[:] = pp
         if prev_root is not None:
             v = (root - prev_root) / dt
             if prev_root_v is not None and i > warm:
