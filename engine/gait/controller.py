@@ -124,9 +124,7 @@ class GaitController:
         self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0]))
         self.min_crouch = 0.0
         self.max_crouch = math.inf
-        #: Groups whose legs are all single rigid segments walk a compass gait.
-        self._compass = [bool(r.nfoot) and bool(np.all(r.foot_rigid[r.step_group[r.foot_stepper] == g]))
-                         for g in range(G)]
+        self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
@@ -188,10 +186,7 @@ class GaitController:
 
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
         for k, drop in enumerate(self._cal_crouch):
-            # some stances the solver meets only approximately (branching legs); what must
-            # not grow is the miss as the feet sweep, so it is measured from the rest miss
-            base = error(drop, (), 0.0, 0.0)
-            if base > 25.0 * tol:
+            if error(drop, (), 0.0, 0.0) > tol:
                 continue                                   # the rest stance itself is out of reach
             for g in range(r.ngroup):
                 d = 0.5 * r.group_length[g]
@@ -202,7 +197,7 @@ class GaitController:
                     worst = max(error(drop, groups_feet[g], dx, dy, alt, h)
                                 for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e))
                                 for alt, h in ((False, 0.0), (True, lift), (True, 0.0)))
-                    if worst <= base + tol:
+                    if worst <= tol:
                         break
                     d *= 0.7
                 else:
@@ -470,7 +465,7 @@ class GaitController:
             settle = 0.5 * self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
             if not idle:
                 f_g = max(f_g, 0.35 * settle)
-            elif np.any(self.step_parked[r.step_group == g] == 0):
+            elif any(self.step_parked[s] == 0 for s in self._group_steps[g]):
                 f_g = settle
             base = max(base, f_g / r.group_ratio[g])
             self.group_duty[g] = duty
