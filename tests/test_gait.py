@@ -376,3 +376,20 @@ def test_rolling_terrain_vectorised():
     h = rolling_terrain(1.0)
     x = np.linspace(-3, 3, 7)
     assert np.allclose(h(x, x), [h(float(a), float(a)) for a in x])
+
+
+def test_path_follower_reaches_the_end():
+    from engine.gait import PathFollower, heading_of
+
+    c = engine.load_creature("creatures/dog.yaml")
+    ch = engine.Character(c)
+    path = [(0.0, 0.0), (1.0, 0.4), (2.0, 0.0)]
+    fol = PathFollower(path, speed=0.4, lookahead=0.4)
+    for _ in range(900):
+        ch.locomote(*fol.command(ch.position, heading_of(ch.rotation)))
+        ch.tick(1 / 60)
+        if fol.done:
+            break
+    assert fol.done and np.hypot(ch.position[0] - 2.0, ch.position[1]) < 0.5
+    with pytest.raises(GaitError):
+        PathFollower([(0, 0)], 1.0, 1.0)

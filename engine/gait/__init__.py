@@ -7,12 +7,16 @@ speed with procedural waves for 7+ feet (``engine.gait.style``, files in
 ``animations/gaits``), feet planted in world space during stance and carried along the
 style's flight path, hip motion and root motion, floating and inch-worm crawling for
 creatures without feet. The per-frame work is two numba kernels around one call of the
-game's terrain height function (``engine.gait._kernels``).
+game's terrain height function (``engine.gait._kernels``). ``PathFollower`` turns a
+polyline into locomote commands; ``engine.gait.metrics`` measures a gait on the runtime's
+output (``benchmarks/gait.py``).
 """
 
 from engine.gait.controller import GaitController, GaitError
+from engine.gait.path import PathFollower, heading_of
 from engine.gait.rig import GaitRig, analyze, cluster_lengths, decide_mode, harmonize
 from engine.gait.style import GaitStyle, GaitStyleError, load_style, parse_style_text, style_names
 
-__all__ = ["GaitController", "GaitError", "GaitRig", "GaitStyle", "GaitStyleError", "analyze", "cluster_lengths",
-           "decide_mode", "harmonize", "load_style", "parse_style_text", "style_names"]
+__all__ = ["GaitController", "GaitError", "GaitRig", "GaitStyle", "GaitStyleError", "PathFollower", "analyze",
+           "cluster_lengths", "decide_mode", "harmonize", "heading_of", "load_style", "parse_style_text",
+           "style_names"]
