@@ -225,7 +225,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
               step_lift_scale, step_duty_scale, step_foot_adr, step_foot_num, step_state, step_progress, step_u,
               foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_world,
               foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, foot_tilt, root_dq, root_dpos,
-              root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+              bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
     """Stage 2 of a frame (see the module docstring).
 
     place_pos (3,), yaw        this frame's placement (world)
@@ -233,6 +233,8 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
     foot_tilt (4,)             slope rotation of planted feet, character space
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
+    bob_state (2,), bob_alpha  low-pass filtered hip bob and sway (in/out) and the filter's
+                               share per frame (many fast feet must not shake the hips)
     foot_hip/jointrel/chain/rigid  see ``engine.gait.rig`` (compass legs)
     root_pos, root_rot, goal_* in/out (character space)
     """
@@ -283,9 +285,11 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
                 foot_yaw[f] = foot_lift_yaw[f] + fw * (foot_target_yaw[f] - foot_lift_yaw[f])
     # root: crouch, slope and lean rotation, bob and sway
     n_per = max(step_group.shape[0], 1) / max(ngroup, 1)
+    bob_state[0] += bob_alpha * (bob / max(n_per * 0.5, 1.0) - bob_state[0])
+    bob_state[1] += bob_alpha * (sway / max(n_per * 0.5, 1.0) - bob_state[1])
     root_pos[0] += root_dpos[0]
-    root_pos[1] += root_dpos[1] + sway / max(n_per * 0.5, 1.0)
-    root_pos[2] += root_dpos[2] + bob / max(n_per * 0.5, 1.0)
+    root_pos[1] += root_dpos[1] + bob_state[1]
+    root_pos[2] += root_dpos[2] + bob_state[0]
     q = _qmul(root_dq[0], root_dq[1], root_dq[2], root_dq[3], root_rot[0], root_rot[1], root_rot[2], root_rot[3])
     for j in range(4):
         root_rot[j] = q[j]

@@ -35,6 +35,8 @@ from engine.model.creature import Creature
 #: Time constants (s) of the filters on the placement height and the torso tilt.
 HEIGHT_TAU = 0.12
 TILT_TAU = 0.25
+#: Time constant (s) of the filter on the hip bob and sway.
+BOB_TAU = 0.06
 #: Below these the character counts as standing still (share of leg length per second, rad/s).
 IDLE_SPEED = 1e-3
 IDLE_TURN = 1e-3
@@ -111,6 +113,7 @@ class GaitController:
         self._foot_tilt = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
+        self._bob = np.zeros(2)
         self._row = np.zeros(8)
         self._tilt = np.zeros(2)             # filtered slope (dz/dx, dz/dy) in the character frame
         self._crouch = 0.0
@@ -125,6 +128,7 @@ class GaitController:
         self.min_crouch = 0.0
         self.max_crouch = math.inf
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
+        self._idle = True
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
@@ -168,7 +172,7 @@ class GaitController:
                         p[2] += lift
                 goals.set(int(fb[f]), p, r.foot_rest_rot[f], 1.0, 1.0)
             root = c.body_rest_pos[0].copy()
-            root[2] -= root_drop
+            root[2] -= root_drop - bob_margin         # the hips bob up while feet are planted
             rigid = [f for f in range(r.nfoot) if r.foot_rigid[f] and f not in skip]
             if rigid:
                 # compass legs: the hips sit at leg's length above the planted feet
@@ -184,6 +188,9 @@ class GaitController:
             miss[skip] = 0.0
             return float(np.max(miss))
 
+        # the largest hip bob the layered styles ask for (leg lengths of the longest group)
+        bob_margin = max(float(np.max(st.table[:, 4])) for layers in self._layers for st, _ in layers) * float(
+            np.max(r.group_length))
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
         for k, drop in enumerate(self._cal_crouch):
             if error(drop, (), 0.0, 0.0) > tol:
@@ -451,6 +458,18 @@ class GaitController:
         speed = math.hypot(self.velocity[0], self.velocity[1])
         idle = (cmd_speed < IDLE_SPEED * L and abs(w_cmd) < IDLE_TURN
                 and speed < IDLE_SPEED * L and abs(self.turn_rate) < IDLE_TURN)
+        if self._idle and not idle and all(self.step_parked[s] == 1 for s in range(r.nstep)):
+            # setting off from a stand: start each group's cycle just before its front
+            # stepper lifts, so the first step comes at once instead of after up to a cycle
+            for g in range(r.ngroup):
+                steps = self._group_steps[g]
+                first = min(steps, key=lambda k: r.step_rank[k])
+                duty0 = self._params(g, 0.0)[2] * self.step_duty_scale[first]
+                self.group_phase[g] = (self.step_trigger[first] + duty0 - 0.005) % 1.0
+                for k in steps:
+                    self.step_prev_u[k] = (self.group_phase[g] - self.step_trigger[k]) % 1.0
+                    self.step_done[k] = 0
+        self._idle = idle
 
         # 2. cadence per group, locked by the harmonized ratios
         base = 0.0
@@ -556,7 +575,8 @@ class GaitController:
                     r.step_foot_adr, r.step_foot_num, self.step_state, self.step_progress, self.step_prev_u,
                     r.foot_body, r.foot_offset, r.foot_rest_rot, r.foot_hip, r.foot_jointrel, r.foot_chain,
                     r.foot_rigid, self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
-                    self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, root_pos, root_rot,
+                    self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
+                    1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw)
         self._last_place[:] = place_pos
 
