@@ -311,13 +311,22 @@ def test_rest_goals_reproduce_rest_pose(mini, human):
         rp = np.array([0.3, -0.2, 0.1]) + c.body_rest_pos[0]
         rr = np.array(K.qaxis_angle((0.0, 0.0, 1.0), 0.7))
         pos, rot = rest_pose_world(c, rp, rr)
-        s = IKSolver(c, names)
+        # Exactly, with the soft reach off (straight rest legs are at full reach) ...
+        s = IKSolver(c, names, IKParams(soft_reach=1.0))
         for n in names:
             s.goals.set(c.body(n), pos=pos[c.body(n)], rot=rot[c.body(n)])
         s.solve(rp, rr)
         ik = s.plan.ik_bodies
         assert np.allclose(s.out_pos[ik], pos[ik], atol=1e-12)
         assert np.allclose(np.abs(np.sum(s.out_rot[ik] * rot[ik], axis=1)), 1.0, atol=1e-12)
+        # ... and with it on: goals met, the knees eased by well under a centimetre.
+        s = IKSolver(c, names)
+        for n in names:
+            s.goals.set(c.body(n), pos=pos[c.body(n)], rot=rot[c.body(n)])
+        s.solve(rp, rr)
+        goals = [c.body(n) for n in names]
+        assert np.allclose(s.out_pos[goals], pos[goals], atol=1e-4)
+        assert np.max(np.linalg.norm(s.out_pos[ik] - pos[ik], axis=1)) < 0.01
 
 
 def test_two_bone_arm_elbow_by_hand(arm):

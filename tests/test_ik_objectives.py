@@ -143,13 +143,26 @@ def test_out_of_reach_points_at_goal_within_stretch(seed, direction_seed):
     s.solve(rp, rr)
     assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies])) and np.all(np.isfinite(s.out_rot[s.plan.ik_bodies]))
     limb_lengths_ok(c, s)
+    p = s.plan.params
     for g, goal in goals.items():
         lr = c.limb_root[c.body_limb[g]]
         attach = joint_world(c, s.out_pos, s.out_rot, lr)
-        tip = joint_world(c, s.out_pos, s.out_rot, g)  # the limb's end (the body keeps its rest angle)
-        u, v = tip - attach, goal - attach
+        # Pointing: the body's origin lies on the line to the goal (within 15 degrees, the
+        # end body keeping its rest angle to its parent) ...
+        u, v = s.out_pos[g] - attach, goal - attach
         cosang = u @ v / (np.linalg.norm(u) * np.linalg.norm(v))
         assert cosang > math.cos(math.radians(15.0)), f"{c.body_names[g]} does not point at its goal"
+        # ... and reaching: as close to the goal as the limb's stretched length allows.
+        reach = (c.body_limb_length[g] + np.linalg.norm(c.body_joint_offset[g])) * p.limb_stretch
+        assert np.linalg.norm(s.out_pos[g] - goal) >= np.linalg.norm(v) - reach - 1e-9
+        # ... and extended: the body's origin (where the goal pulls) at least 95% of its
+        # full reach from the limb's root, the whole chain straightened toward the goal.
+        # (A branching limb with goals pulling its branches apart is a conflict instead.)
+        if sum(1 for h in goals if c.body_limb[h] == c.body_limb[g]) == 1:
+            slot = s.plan.goal_bodies.index(g)
+            full = s.plan.arrays.goal_reach[slot]
+            extension = np.linalg.norm(s.out_pos[g] - attach)
+            assert extension >= 0.95 * full, f"{c.body_names[g]} is not extended toward its goal"
 
 
 def test_conflicting_goals_settle_between():

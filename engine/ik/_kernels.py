@@ -60,6 +60,7 @@ INT_FIELDS = (
     "goal_sp",             # (ngoal,) spine-phase particle the goal pins, -1 if none
     "goal_lp",             # (ngoal,) limb-phase particle the position goal pins (a tip or the joint), -1 if none
     "goal_lpj",            # (ngoal,) the goal body's joint particle when goal_lp is its tip, else -1
+    "goal_lproot",         # (ngoal,) limb root particle of a limb goal (its reach is measured from there), -1
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
                            # body's goal held at its origin (self-delegated), else -1
     "scratch_layout",      # (10,) first row of each scratch block (see ``_scratch_views``)
@@ -88,6 +89,8 @@ FLOAT_FIELDS = (
     ("lp_rot_local", 4),   # rest rotation relative to the attach body
     ("lc_len", 1), ("lc_lo", 1), ("lc_hi", 1), ("lc_plo", 1), ("lc_phi", 1),
     ("lc_inva", 1), ("lc_invb", 1),
+    ("goal_reach", 1),     # (ngoal,) reach of the goal particle from the limb root particle, m
+    ("goal_reachj", 1),    # (ngoal,) reach of the goal body's joint particle (when tipped), m
     ("params", 1),         # see P_* below
 )
 FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
@@ -98,7 +101,8 @@ PlanArrays = namedtuple("PlanArrays", INT_FIELDS + FLOAT_NAMES)
 P_SPINE_OUTER, P_SPINE_INNER, P_LIMB_OUTER, P_LIMB_INNER = 0, 1, 2, 3
 P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
 P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
-NPARAM = 12
+P_SOFT_REACH, P_LIMB_STRETCH = 12, 13
+NPARAM = 14
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
 # state, dg_target, sp_acc.
@@ -457,7 +461,7 @@ def unpack(pi, pf, pf3, pf4):
         _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
         _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
-        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47), _i(pi, 48),
         # floats
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
         _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7), _f(pi, pf, 8), _f(pi, pf, 9),
@@ -467,7 +471,7 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf, 25), _f(pi, pf3, 26), _f(pi, pf4, 27), _f(pi, pf3, 28), _f(pi, pf4, 29),
         _f(pi, pf3, 30), _f(pi, pf3, 31), _f(pi, pf4, 32), _f(pi, pf, 33), _f(pi, pf, 34),
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
-        _f(pi, pf, 40),
+        _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42),
     )
 
 
@@ -831,7 +835,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
                 continue
             pc = v3(lp_pos, P.goal_lp[gi])
             cur = vadd(cur, vscale(pc, w))
-            tgt = vadd(tgt, vscale(vlerp(pc, _limb_target(P, goal_pos, goal_joint, gi), w), w))
+            tgt = vadd(tgt, vscale(vlerp(pc, _limb_target(P, goal_pos, goal_joint, lp_pos, gi), w), w))
             wsum += w
         if wsum <= 0.0:
             continue
@@ -869,16 +873,77 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     # Goal particles at their goals (weighted), then the constraint iterations.
     _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
                   int(prm[P_LIMB_INNER]))
+    _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
+@njit(cache=True)
+def _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos):
+    """The soft reach bent a serial limb as if its goal were a little closer; now stretch
+    the limb uniformly about its root (within the allowed stretch) so its end meets the
+    real goal: the knee's angle is eased, the goal still met up to full reach."""
+    kmax = P.params[P_LIMB_STRETCH]
+    for g in range(P.ag_pivot.shape[0]):
+        root = P.ag_pivot[g]
+        if P.lp_parent[root] >= 0 or P.ag_goal_num[g] != 1:
+            continue
+        gi = P.ag_goal[P.ag_goal_adr[g]]
+        b = P.goal_body[gi]
+        if min(max(goal_pos_w[b], 0.0), 1.0) <= 0.0:
+            continue
+        r = v3(lp_pos, root)
+        soft = P.params[P_SOFT_REACH]
+        # Stretch for the joint target (what a rotation goal places the body by) ...
+        tj = v3(goal_joint, gi)
+        ej = vnorm(vsub(soft_reach(tj, r, P.goal_reachj[gi], soft), r))
+        k = vnorm(vsub(tj, r)) / ej if ej > EPS else 1.0
+        if P.goal_lpj[gi] >= 0:
+            # ... and for the tip (what places it without one), blended by the rotation weight.
+            tt = v3(goal_pos, b)
+            et = vnorm(vsub(soft_reach(tt, r, P.goal_reach[gi], soft), r))
+            kt = vnorm(vsub(tt, r)) / et if et > EPS else 1.0
+            wr = min(max(goal_rot_w[b], 0.0), 1.0)
+            k = kt + wr * (k - kt)
+        k = min(k, kmax)
+        if k <= 1.0 + 1e-12:
+            continue
+        for j in range(P.ag_moved_adr[g], P.ag_moved_adr[g] + P.ag_moved_num[g]):
+            m = P.ag_moved[j]
+            set3(lp_pos, m, vadd(r, vscale(vsub(v3(lp_pos, m), r), k)))
+
+
+@njit(cache=True)
+def soft_reach(target, origin, reach, soft):
+    """Soft reach (no knee pop): past ``soft * reach`` from ``origin`` the distance of a
+    target is eased toward ``reach`` exponentially, C1 at the join, so as a goal moves out
+    to and beyond full reach the limb straightens at a bounded rate and then only turns
+    to point at it; inside ``soft * reach`` the target is untouched. With ``soft`` = 1
+    the target is only clamped to full reach (a pinned goal out of reach would otherwise
+    drag the chain's last segments into whatever the projection leaves)."""
+    if reach <= 0.0:
+        return target
+    d = vsub(target, origin)
+    dist = vnorm(d)
+    ds = soft * reach
+    if dist <= ds:
+        return target
+    if soft >= 1.0:
+        eased = reach  # no easing: only clamped to full reach
+    else:
+        eased = reach - (reach - ds) * math.exp(-(dist - ds) / (reach - ds))
+    return vadd(origin, vscale(d, eased / dist))
+
+
 @njit(cache=True, inline="always")
-def _limb_target(P, goal_pos, goal_joint, gi):
+def _limb_target(P, goal_pos, goal_joint, lp_pos, gi):
     """Where goal ``gi`` pins its limb particle: a tip particle (at the body's origin) goes
-    to the position goal itself, a joint particle to the goal converted to the joint."""
+    to the position goal itself, a joint particle to the goal converted to the joint;
+    both within the limb's soft reach."""
     if P.goal_lpj[gi] >= 0:
-        return v3(goal_pos, P.goal_body[gi])
-    return v3(goal_joint, gi)
+        t = v3(goal_pos, P.goal_body[gi])
+    else:
+        t = v3(goal_joint, gi)
+    return soft_reach(t, v3(lp_pos, P.goal_lproot[gi]), P.goal_reach[gi], P.params[P_SOFT_REACH])
 
 
 @njit(cache=True)
@@ -895,14 +960,16 @@ def _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_
         b = P.goal_body[gi]
         w = min(max(goal_pos_w[b], 0.0), 1.0)
         if w > 0.0 and (first or w < 1.0):
-            set3(lp_pos, i, vlerp(v3(lp_pos, i), _limb_target(P, goal_pos, goal_joint, gi), w))
+            set3(lp_pos, i, vlerp(v3(lp_pos, i), _limb_target(P, goal_pos, goal_joint, lp_pos, gi), w))
         if first:
             lp_inv[i] = 1.0 - w
         j = P.goal_lpj[gi]
         if j >= 0 and P.lp_parent[j] >= 0:
             wj = w * min(max(goal_rot_w[b], 0.0), 1.0)
             if wj > 0.0 and (first or wj < 1.0):
-                set3(lp_pos, j, vlerp(v3(lp_pos, j), v3(goal_joint, gi), wj))
+                tj = soft_reach(v3(goal_joint, gi), v3(lp_pos, P.goal_lproot[gi]), P.goal_reachj[gi],
+                                P.params[P_SOFT_REACH])
+                set3(lp_pos, j, vlerp(v3(lp_pos, j), tj, wj))
             if first:
                 lp_inv[j] = 1.0 - wj
 
@@ -1136,7 +1203,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 48 + 41
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 49 + 43
 
 
 _check_layout()

@@ -51,6 +51,8 @@ class IKParams:
     buckle_full: float = math.radians(100.0)  # ... and where it is fully on
     anti_buckling: bool = True
     root_influence: float = 0.1   # share of the spine children's swing given to the root rotation
+    soft_reach: float = 0.97      # past this fraction of full reach a serial limb's bend is eased and the
+                                  # rest met by stretching (no knee pop); 1 = exact up to full reach
     transport_substeps: int = 4   # minimal-twist steps between spline samples
     straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
     spline_regularization: float = 1e-3
@@ -69,6 +71,8 @@ class IKParams:
         v[K.P_ANTI_BUCKLING] = 1.0 if self.anti_buckling else 0.0
         v[K.P_ROOT_INFLUENCE] = self.root_influence
         v[K.P_SUBSTEPS] = self.transport_substeps
+        v[K.P_SOFT_REACH] = self.soft_reach
+        v[K.P_LIMB_STRETCH] = self.limb_stretch
         return v
 
     def validate(self) -> None:
@@ -89,6 +93,8 @@ class IKParams:
             raise IKError("spine_shrink <= 1 <= spine_stretch is required", field="spine_shrink")
         if not self.limb_shrink <= 1.0 <= self.limb_stretch:
             raise IKError("limb_shrink <= 1 <= limb_stretch is required", field="limb_shrink")
+        if not 0.0 < self.soft_reach <= 1.0:
+            raise IKError("must be in (0, 1] (1 turns the easing off)", field="soft_reach")
         if not 0.0 < self.chord_compress <= 1.0:
             raise IKError("must be in (0, 1]", field="chord_compress")
         if self.buckle_full <= self.buckle_on:
@@ -585,6 +591,30 @@ def _build(c, goals: list[int], prm: IKParams):
         if P["con"] >= 0:
             P["con"] = lc_remap[P["con"]]
 
+    # Reach of each limb goal particle from its limb root particle: the rest lengths of
+    # the chain up to the goal body's joint, plus the tip's brace (or offset).
+    goal_lproot = np.full(len(goals), -1, np.int32)
+    goal_reach = np.zeros(len(goals))
+    goal_reachj = np.zeros(len(goals))
+    for k, g in enumerate(goals):
+        if g not in lp_of:
+            continue
+        i = lp_of[g]
+        chain_len = 0.0
+        while lp[i]["parent"] >= 0:
+            chain_len += float(np.linalg.norm(lp[i]["local"] - lp[lp[i]["parent"]]["local"]))
+            i = lp[i]["parent"]
+        goal_lproot[k] = i
+        goal_reachj[k] = chain_len
+        goal_reach[k] = chain_len
+        if g in tip_of:
+            t = tip_of[g]
+            if g in brace:
+                pp = brace[g]
+                up = chain_len - float(np.linalg.norm(lp[lp_of[g]]["local"] - lp[pp]["local"]))
+                goal_reach[k] = up + float(np.linalg.norm(lp[t]["local"] - lp[pp]["local"]))
+            else:
+                goal_reach[k] = chain_len + float(np.linalg.norm(lp[t]["local"] - lp[lp_of[g]]["local"]))
     goal_lp = np.array([tip_of.get(g, lp_of.get(g, -1)) for g in goals], np.int32)
     goal_lpj = np.array([lp_of[g] if g in tip_of else -1 for g in goals], np.int32)
     rg_body = sorted(delegated)
@@ -618,7 +648,7 @@ def _build(c, goals: list[int], prm: IKParams):
         ag_goal_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_goal])[:-1]] if ag_goal else []),
         ag_goal_num=i32([len(m) for m in ag_goal]),
         ag_moved=i32([x for m in ag_moved for x in m]), ag_goal=i32([x for m in ag_goal for x in m]),
-        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_lpj=goal_lpj, goal_limb_root=i32(goal_limb_root),
+        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_lpj=goal_lpj, goal_lproot=goal_lproot, goal_limb_root=i32(goal_limb_root),
         scratch_layout=layout,
         b_rootrel_rot=f64(rr_rot, 4), b_rootrel_pos=f64(rr_pos, 3), b_rootrel_joint=f64(rr_joint, 3),
         b_joint_offset=f64(c.body_joint_offset, 3), b_local_rot=f64(c.body_local_rot, 4),
@@ -640,7 +670,7 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_plo=f64([x.get("plo", prm.limb_shrink) for x in lc], 1),
         lc_phi=f64([x.get("phi", prm.limb_stretch) for x in lc], 1),
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
-        params=prm.vector(),
+        goal_reach=goal_reach, goal_reachj=goal_reachj, params=prm.vector(),
     )
     fields["_scratch_size"] = int(sum(sizes))
     info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies)
