@@ -63,7 +63,7 @@ INT_FIELDS = (
     "goal_lproot",         # (ngoal,) limb root particle of a limb goal (its reach is measured from there), -1
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
                            # body's goal held at its origin (self-delegated), else -1
-    "scratch_layout",      # (10,) first row of each scratch block (see ``_scratch_views``)
+    "scratch_layout",      # (12,) first row of each scratch block (see ``_scratch_views``)
 )
 FLOAT_FIELDS = (
     ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
@@ -105,8 +105,8 @@ P_SOFT_REACH, P_LIMB_STRETCH = 12, 13
 NPARAM = 14
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
-# state, dg_target, sp_acc.
-NSCRATCH = 10
+# state, dg_target, sp_acc, lg_target, lg_jtarget.
+NSCRATCH = 12
 
 EPS = 1e-12
 
@@ -239,6 +239,10 @@ def qbetween(u, v):
 
 @njit(cache=True)
 def qslerp(a, b, t):
+    if t >= 1.0:
+        return b
+    if t <= 0.0:
+        return a
     d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
     if d < 0.0:
         b = (-b[0], -b[1], -b[2], -b[3])
@@ -495,7 +499,10 @@ def _scratch_views(P, scratch):
     state = scratch[lay[7], :]
     dg_target = scratch[lay[8]:lay[8] + ndg]
     sp_acc = scratch[lay[9]:lay[9] + nsp]
-    return sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc
+    lg_target = scratch[lay[10]:lay[10] + ngoal]
+    lg_jtarget = scratch[lay[11]:lay[11] + ngoal]
+    return (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc,
+            lg_target, lg_jtarget)
 
 
 # -- the solve ------------------------------------------------------------------------
@@ -806,7 +813,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
 
 @njit(cache=True)
 def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
-                out_pos, out_rot):
+                out_pos, out_rot, lg_target, lg_jtarget):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
     recursively with weighted goal averages, branches), constraint iterations, then
     positions by outward projection and orientations by minimal twist from the rest pose
@@ -821,6 +828,15 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
         set3(lp_rest, i, vadd(ps, qrot(rs, v3(P.lp_local, i))))
         set3(lp_pos, i, vadd(ps, qrot(rs, v3(P.lp_init_local, i))))
         lp_inv[i] = 0.0 if P.lp_parent[i] < 0 else 1.0
+    # Where each goal pins its particles (fixed during the iterations: the limb roots do
+    # not move in this phase).
+    for gi in range(P.goal_body.shape[0]):
+        if P.goal_lp[gi] < 0:
+            continue
+        set3(lg_target, gi, _limb_target(P, goal_pos, goal_joint, lp_pos, gi))
+        if P.goal_lpj[gi] >= 0:
+            set3(lg_jtarget, gi, soft_reach(v3(goal_joint, gi), v3(lp_pos, P.goal_lproot[gi]), P.goal_reachj[gi],
+                                            P.params[P_SOFT_REACH]))
     # Aim preconditioner: rotate and scale each group about its pivot so the weighted
     # mean of its goal particles lands on the weighted mean of their goals.
     for g in range(P.ag_pivot.shape[0]):
@@ -835,7 +851,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
                 continue
             pc = v3(lp_pos, P.goal_lp[gi])
             cur = vadd(cur, vscale(pc, w))
-            tgt = vadd(tgt, vscale(vlerp(pc, _limb_target(P, goal_pos, goal_joint, lp_pos, gi), w), w))
+            tgt = vadd(tgt, vscale(vlerp(pc, v3(lg_target, gi), w), w))
             wsum += w
         if wsum <= 0.0:
             continue
@@ -871,7 +887,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             across = vsub(y, vscale(ghat, along))
             set3(lp_pos, m, vadd(piv, vadd(vscale(ghat, scale * along), vscale(across, widen))))
     # Goal particles at their goals (weighted), then the constraint iterations.
-    _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
+    _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
                   int(prm[P_LIMB_INNER]))
     _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
@@ -946,8 +962,8 @@ def _limb_target(P, goal_pos, goal_joint, lp_pos, gi):
     return soft_reach(t, v3(lp_pos, P.goal_lproot[gi]), P.goal_reach[gi], P.params[P_SOFT_REACH])
 
 
-@njit(cache=True)
-def _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, first):
+@njit(cache=True, inline="always")
+def _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, first):
     """Pull goal particles toward their targets by the goal weight (the first time also
     making them heavy in proportion). A body with a tip particle has its tip pinned at
     the position goal and, as far as it has a rotation goal, its joint at the 6-DOF goal
@@ -960,22 +976,20 @@ def _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_
         b = P.goal_body[gi]
         w = min(max(goal_pos_w[b], 0.0), 1.0)
         if w > 0.0 and (first or w < 1.0):
-            set3(lp_pos, i, vlerp(v3(lp_pos, i), _limb_target(P, goal_pos, goal_joint, lp_pos, gi), w))
+            set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(lg_target, gi), w))
         if first:
             lp_inv[i] = 1.0 - w
         j = P.goal_lpj[gi]
         if j >= 0 and P.lp_parent[j] >= 0:
             wj = w * min(max(goal_rot_w[b], 0.0), 1.0)
             if wj > 0.0 and (first or wj < 1.0):
-                tj = soft_reach(v3(goal_joint, gi), v3(lp_pos, P.goal_lproot[gi]), P.goal_reachj[gi],
-                                P.params[P_SOFT_REACH])
-                set3(lp_pos, j, vlerp(v3(lp_pos, j), tj, wj))
+                set3(lp_pos, j, vlerp(v3(lp_pos, j), v3(lg_jtarget, gi), wj))
             if first:
                 lp_inv[j] = 1.0 - wj
 
 
 @njit(cache=True)
-def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, n_outer, n_inner):
+def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, n_outer, n_inner):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
     constraints leaves inward, and an outward projection of every particle to its allowed
     stretch from its parent. The inward sweeps carry the goal error toward the spine; the
@@ -983,7 +997,7 @@ def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_in
     (the same projection ends the solve, section 4.3.3 "Reconstruction")."""
     prm = P.params
     slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
-    _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, True)
+    _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, True)
     nlc = P.lc_a.shape[0]
     nlp = P.lp_body.shape[0]
     for _outer in range(n_outer):
@@ -992,7 +1006,7 @@ def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_in
                 c = P.lp_con[i]
                 if c >= 0:
                     project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
-            _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, True)
+            _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, True)
         for _inner in range(n_inner):
             for c in range(nlc):
                 stiff = 1.0
@@ -1005,7 +1019,7 @@ def _limb_iterate(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_in
                         continue
                 relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
                                  P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], stiff, slope, band, width)
-            _pin_limb_goals(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos, lp_inv, False)
+            _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, False)
 
 
 @njit(cache=True)
@@ -1083,7 +1097,8 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
               scratch):
     """One whole solve: goals to joint targets, spine phase, root influence, spine
     reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
-    sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc = _scratch_views(P, scratch)
+    (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc, lg_target,
+     lg_jtarget) = _scratch_views(P, scratch)
     rr = qnormalize(root_rot)
     _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint)
     _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target)
@@ -1113,7 +1128,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
         if moved <= 1e-7:
             break
     _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
-                out_pos, out_rot)
+                out_pos, out_rot, lg_target, lg_jtarget)
 
 
 @njit(cache=True)

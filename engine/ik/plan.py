@@ -35,8 +35,8 @@ class IKParams:
     """Tuning of the solver; defaults in one place. Angles in radians, ratios of rest length."""
 
     spine_outer: int = 5          # outer iterations of the spine phase (the paper's 5)
-    spine_inner: int = 3          # constraint sweeps per outer iteration
-    limb_outer: int = 8           # outer iterations of the limb phase
+    spine_inner: int = 2          # constraint sweeps per outer iteration
+    limb_outer: int = 6           # outer iterations of the limb phase
     limb_inner: int = 2           # sweeps per limb outer iteration (then an outward projection)
     soft_slope: float = 0.5       # share of a small length error removed per sweep
     soft_band: float = 0.01       # relative error below which the constraint is soft
@@ -53,7 +53,7 @@ class IKParams:
     root_influence: float = 0.1   # share of the spine children's swing given to the root rotation
     soft_reach: float = 0.97      # past this fraction of full reach a serial limb's bend is eased and the
                                   # rest met by stretching (no knee pop); 1 = exact up to full reach
-    transport_substeps: int = 4   # minimal-twist steps between spline samples
+    transport_substeps: int = 2   # minimal-twist steps between spline samples
     straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
     spline_regularization: float = 1e-3
 
@@ -622,7 +622,7 @@ def _build(c, goals: list[int], prm: IKParams):
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
     f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
     nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
-    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg), nsp]  # rows of 3
+    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg), nsp, ngoal, ngoal]  # rows of 3
     layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
     fields = dict(
         b_parent=i32(parent),
