@@ -226,7 +226,7 @@ def _short(t, L):
     pytest.param("mini", marks=pytest.mark.xfail(
         reason="single-segment (knee-less) legs: in double support the planted feet ask for different hip "
                "heights and the IK misses by up to ~2 cm (see the gait report)", strict=False)),
-    "humanoid", "dog", "hexapod", "tripod", "forkstrider"])
+    "dog", "hexapod", "tripod", "forkstrider"])
 def test_planted_feet_do_not_slide(name, mini):
     c = mini if name == "mini" else engine.load_creature(f"creatures/{name}.yaml")
     for terrain in (False, True):

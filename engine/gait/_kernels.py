@@ -48,11 +48,39 @@ def _predict(px, py, yaw, vx, vy, omega, t):
     return px + s * vx - c * vy, py + c * vx + s * vy, yaw + a
 
 
+@njit(cache=True, inline="always")
+def _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw):
+    """Foot joint in character space: the foot's position there plus its rest joint
+    offset turned by the foot's yaw relative to the heading."""
+    dx = foot_world[f, 0] - place_pos[0]
+    dy = foot_world[f, 1] - place_pos[1]
+    px = cy * dx + sy * dy
+    py = -sy * dx + cy * dy
+    pz = foot_world[f, 2] - place_pos[2]
+    a = foot_yaw[f] - yaw
+    ca, sa = math.cos(a), math.sin(a)
+    jx, jy = foot_jointrel[f, 0], foot_jointrel[f, 1]
+    return px + ca * jx - sa * jy, py + sa * jx + ca * jy, pz + foot_jointrel[f, 2]
+
+
+@njit(cache=True, inline="always")
+def _hip(root_pos, root_rot, foot_hip, f):
+    """Hip joint in character space: the root-relative hip point carried by the root."""
+    w, x, y, z = root_rot[0], root_rot[1], root_rot[2], root_rot[3]
+    vx, vy, vz = foot_hip[f, 0], foot_hip[f, 1], foot_hip[f, 2]
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (root_pos[0] + vx + w * tx + (y * tz - z * ty), root_pos[1] + vy + w * ty + (z * tx - x * tz),
+            root_pos[2] + vz + w * tz + (x * ty - y * tx))
+
+
 @njit(cache=True)
 def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
               step_progress, step_prev_u, step_parked, step_lift_u, step_done, foot_body, foot_neutral,
-              foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query):
+              foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query,
+              place_z, prev_root_pos, prev_root_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, group_stretch):
     """Stage 1 of a frame (see the module docstring).
 
     place (3,)     new placement x, y, heading yaw (world)
@@ -67,6 +95,10 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                    world yaw, lift-off yaw, touchdown target (x, y written here), target yaw
     goal_pw (nbody,) the blended animation goal weights (a foot with weight > 0 is owned)
     query (3F + 5, 2) out: ground points to sample (see ``GaitController``)
+    place_z, prev_root_pos (3,), prev_root_rot (4,)  last frame's placement height and root
+                   pose (character space), to see how far planted legs are stretched
+    group_stretch (G,) hip-to-foot distance over chain length the IK was verified to meet:
+                   a planted foot past it takes a rescue step
     """
     nfoot = foot_body.shape[0]
     px, py, yaw = place[0], place[1], place[2]
@@ -119,8 +151,18 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                     step_done[s] = 1
                 else:
                     lift = True
-            if not lift and disp > group_sweep[g] and not (idle and step_parked[s] == 1):
-                lift = True                      # rescue step: the planted foot would overreach
+            if not lift and not (idle and step_parked[s] == 1):
+                if disp > group_sweep[g]:
+                    lift = True                  # rescue step: the planted foot would overreach
+                else:
+                    for f in range(a0, a1):
+                        if foot_rigid[f] == 0 and foot_chain[f] > 0.0:
+                            jx, jy, jz = _foot_joint(foot_world, foot_jointrel, foot_yaw, f, (px, py, place_z), cy,
+                                                     sy, yaw)
+                            hx, hy, hz = _hip(prev_root_pos, prev_root_rot, foot_hip, f)
+                            if math.sqrt((jx - hx) ** 2 + (jy - hy) ** 2 + (jz - hz) ** 2) > (
+                                    group_stretch[g] * foot_chain[f]):
+                                lift = True      # ... or is stretched past what the IK was seen to meet
             if lift:
                 step_state[s] = FLIGHT
                 step_progress[s] = 0.0
@@ -191,33 +233,6 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
 def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
     return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
             a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
-
-
-@njit(cache=True, inline="always")
-def _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw):
-    """Foot joint in character space: the foot's position there plus its rest joint
-    offset turned by the foot's yaw relative to the heading."""
-    dx = foot_world[f, 0] - place_pos[0]
-    dy = foot_world[f, 1] - place_pos[1]
-    px = cy * dx + sy * dy
-    py = -sy * dx + cy * dy
-    pz = foot_world[f, 2] - place_pos[2]
-    a = foot_yaw[f] - yaw
-    ca, sa = math.cos(a), math.sin(a)
-    jx, jy = foot_jointrel[f, 0], foot_jointrel[f, 1]
-    return px + ca * jx - sa * jy, py + sa * jx + ca * jy, pz + foot_jointrel[f, 2]
-
-
-@njit(cache=True, inline="always")
-def _hip(root_pos, root_rot, foot_hip, f):
-    """Hip joint in character space: the root-relative hip point carried by the root."""
-    w, x, y, z = root_rot[0], root_rot[1], root_rot[2], root_rot[3]
-    vx, vy, vz = foot_hip[f, 0], foot_hip[f, 1], foot_hip[f, 2]
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return (root_pos[0] + vx + w * tx + (y * tz - z * ty), root_pos[1] + vy + w * ty + (z * tx - x * tz),
-            root_pos[2] + vz + w * tz + (x * ty - y * tx))
 
 
 @njit(cache=True)

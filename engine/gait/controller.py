@@ -127,6 +127,11 @@ class GaitController:
         self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0]))
         self.min_crouch = 0.0
         self.max_crouch = math.inf
+        #: Hip-to-foot stretch (over chain length) the IK was verified to meet, per group:
+        #: a planted foot stretched further takes a rescue step.
+        self.group_stretch = np.full(G, 10.0)
+        self._prev_root_pos = np.zeros(3)
+        self._prev_root_rot = np.array([1.0, 0.0, 0.0, 0.0])
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
         self._idle = True
         self._rebuild_patterns()
@@ -186,12 +191,20 @@ class GaitController:
             solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
             miss = np.linalg.norm(out_p[fb] - goals.goal_pos[fb], axis=1)
             miss[skip] = 0.0
+            # how stretched the bending legs were (hip joint to foot joint over chain)
+            for f in feet:
+                if not r.foot_rigid[f] and r.foot_chain[f] > 0:
+                    h = root + _rotate(c.body_rest_rot[0], r.foot_hip[f])
+                    j = goals.goal_pos[fb[f]] + r.foot_jointrel[f]
+                    stretch_seen[0] = max(stretch_seen[0], float(np.linalg.norm(j - h)) / r.foot_chain[f])
             return float(np.max(miss))
 
         # the largest hip bob the layered styles ask for (leg lengths of the longest group)
         bob_margin = max(float(np.max(st.table[:, 4])) for layers in self._layers for st, _ in layers) * float(
             np.max(r.group_length))
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
+        stretch_seen = [0.0]
+        verified = np.zeros((r.ngroup, self._cal_crouch.shape[0]))
         for k, drop in enumerate(self._cal_crouch):
             if error(drop, (), 0.0, 0.0) > tol:
                 continue                                   # the rest stance itself is out of reach
@@ -199,12 +212,14 @@ class GaitController:
                 d = 0.5 * r.group_length[g]
                 for _ in range(tries):
                     e = 1.25 * d                           # a margin for bob, lean, tilt and turning
+                    stretch_seen[0] = 0.0
                     lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
                     # same way, alternating with every other stepper lifted, alternating all planted
                     worst = max(error(drop, groups_feet[g], dx, dy, alt, h)
                                 for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e))
                                 for alt, h in ((False, 0.0), (True, lift), (True, 0.0)))
                     if worst <= tol:
+                        verified[g, k] = stretch_seen[0]
                         break
                     d *= 0.7
                 else:
@@ -214,6 +229,9 @@ class GaitController:
         best = float(np.max(score))
         k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else 0
         self.min_crouch = float(self._cal_crouch[k])
+        for g in range(r.ngroup):
+            if verified[g, k] > 0:
+                self.group_stretch[g] = verified[g, k]
         # ... and the deepest crouch (a sneak, a heavy gait) that keeps every group able to step
         top = k
         while top + 1 < len(score) and score[top + 1] >= 0.5 * best and best > 0:
@@ -409,6 +427,9 @@ class GaitController:
                 or abs(math.remainder(yaw_now - self._yaw, 2 * math.pi)) > 1e-6):
             # first frame, or the game moved the character itself: plant afresh
             self._start(place_pos, yaw_now)
+            self._prev_root_pos[:] = root_pos
+            self._prev_root_pos[2] -= self._crouch
+            self._prev_root_rot[:] = root_rot
         self._time += dt
         L = float(np.max(r.group_length)) if r.ngroup else max(float(self.creature.size[2]), 0.1)
 
@@ -510,7 +531,9 @@ class GaitController:
                         r.foot_body,
                         r.foot_neutral,
                         self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
-                        self.foot_target_yaw, goal_pw, q)
+                        self.foot_target_yaw, goal_pw, q, float(place_pos[2]), self._prev_root_pos,
+                        self._prev_root_rot, r.foot_hip, r.foot_jointrel, r.foot_chain, r.foot_rigid,
+                        self.group_stretch)
         # ground under the centre and four points around it (slope at the body's scale)
         e = max(0.5 * float(max(self.creature.size[0], self.creature.size[1])), 0.05)
         cy, sy = math.cos(self._yaw), math.sin(self._yaw)
@@ -579,6 +602,8 @@ class GaitController:
                     1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw)
         self._last_place[:] = place_pos
+        self._prev_root_pos[:] = root_pos
+        self._prev_root_rot[:] = root_rot
 
 
 def _as_style(style) -> GaitStyle:
@@ -612,6 +637,13 @@ def _interp_into(t: np.ndarray, x: float, out: np.ndarray) -> None:
     k = _bracket(t[:, 0], x)
     for j in range(8):
         out[j] = _lerp_col(t, k, x, j)
+
+
+def _rotate(q, v):
+    w, x, y, z = q
+    u = np.array([x, y, z])
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
 
 
 def _pitch_roll_into(pitch: float, roll: float, out: np.ndarray) -> None:
