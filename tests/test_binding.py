@@ -151,3 +151,19 @@ def test_every_library_animation_binds_or_says_why():
                 bv = b.bound(k)
                 # Zero selected bodies is a valid binding (the animation rests there).
                 assert np.all((bv.goal_bodies >= 0) & (bv.goal_bodies < c.nbody))
+
+
+def test_count_predicates():
+    text = HANDOVER.replace("{side}", "").replace("length: 1.0\n", "length: 1.0\nbranches: {min_legs: 4, max_graspers: 2}\n")
+    anim = animation_from_text(text)
+    dog = engine.load_creature("creatures/dog.yaml")          # 4 legs, 0 graspers
+    human = engine.load_creature("creatures/humanoid.yaml")   # 2 legs, 2 graspers
+    octopus = engine.load_creature("creatures/octopus.yaml")  # 0 legs, 8 graspers
+    assert branch_failures(anim, dog) == []
+    assert branch_failures(anim, human) == ["it has 2 legs, the animation needs at least 4"]
+    assert branch_failures(anim, octopus) == ["it has 0 legs, the animation needs at least 4",
+                                              "it has 8 graspers, the animation needs at most 2"]
+    with pytest.raises(engine.MenagerieError, match="whole number"):
+        animation_from_text(text.replace("min_legs: 4", "min_legs: many"))
+    with pytest.raises(engine.MenagerieError, match="whole number"):
+        animation_from_text(text.replace("min_legs: 4", "min_legs: -1"))

@@ -29,6 +29,10 @@ from engine.query import Query
 
 FORMAT_VERSION = 1
 #: Branch predicates the binding evaluates (Hecker 2008 sec 4.1.1). true / false; absent = ignore.
+#: Count predicates take a whole number: the creature must have at least (min_) or at most
+#: (max_) that many legs, graspers, heads or mouths.
+COUNT_PREDICATES = ("min_legs", "max_legs", "min_graspers", "max_graspers", "min_heads", "max_heads",
+                    "min_mouths", "max_mouths")
 BRANCH_PREDICATES = ("upright_spine", "has_graspers", "has_feet", "has_mouth", "has_head", "has_eyes",
                      "has_tail", "has_wings")
 SIDE_CONSTRAINTS = ("same", "opposite")
@@ -138,7 +142,7 @@ class Animation:
     channels: tuple[ChannelDef, ...]
     description: str = ""
     loop: bool = False
-    branches: tuple[tuple[str, bool], ...] = ()
+    branches: tuple[tuple[str, bool | int], ...] = ()
     targets: tuple[tuple[str, tuple[float, float, float] | None], ...] = ()
     path: str | None = field(default=None, compare=False)
 
@@ -283,8 +287,13 @@ def validate_animation(a: Animation) -> None:
     if not (isinstance(a.length, float) and math.isfinite(a.length) and a.length > 0.0):
         fail(f"length must be a positive number of seconds, got {a.length!r}", fld="length")
     for pred, value in a.branches:
+        if pred in COUNT_PREDICATES:
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                fail(f"branch predicate {pred!r} must be a whole number >= 0, got {value!r}", fld="branches")
+            continue
         if pred not in BRANCH_PREDICATES:
-            fail(f"unknown branch predicate {pred!r} (known: {', '.join(BRANCH_PREDICATES)})", fld="branches")
+            fail(f"unknown branch predicate {pred!r} (known: {', '.join(BRANCH_PREDICATES + COUNT_PREDICATES)})",
+                 fld="branches")
         if not isinstance(value, bool):
             fail(f"branch predicate {pred!r} must be true or false (leave it out to ignore it)", fld="branches")
     seen_targets = set()

@@ -64,8 +64,18 @@ def predicate_values(creature: Creature) -> dict[str, bool]:
 def branch_failures(animation: Animation, creature: Creature) -> list[str]:
     """Why ``animation`` does not bind to ``creature`` (empty when it does)."""
     values = predicate_values(creature)
+    counts = {"legs": creature.nleg, "graspers": int(creature.cap_count[list(CAP_BIT).index("grasper")]),
+              "heads": int(creature.cap_count[list(CAP_BIT).index("head")]),
+              "mouths": int(creature.cap_count[list(CAP_BIT).index("mouth")])}
     out = []
     for name, wanted in animation.branches:
+        if name.startswith(("min_", "max_")):
+            what = name[4:]
+            have = counts[what]
+            if (name.startswith("min_") and have < wanted) or (name.startswith("max_") and have > wanted):
+                out.append(f"it has {have} {what}, the animation needs {'at least' if name.startswith('min_') else 'at most'} "
+                           f"{wanted}")
+            continue
         if name not in values:
             out.append(f"unknown predicate '{name}'")
         elif values[name] != wanted:

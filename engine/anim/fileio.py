@@ -84,6 +84,13 @@ def _str(item, ctx, field):
     return item.value
 
 
+def _count(item, ctx, field):
+    v = item.value
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        ctx.fail(f"expected a whole number >= 0, got {_describe(v)}", item.line, field)
+    return v
+
+
 def _bool(item, ctx, field):
     if not isinstance(item.value, bool):
         ctx.fail(f"expected true or false, got {_describe(item.value)}", item.line, field)
@@ -271,10 +278,11 @@ def parse_animation_text(text: str, path: str | None = None) -> Animation:
     if "loop" in top:
         kw["loop"] = _bool(top["loop"], ctx, "loop")
     if "branches" in top:
-        from engine.anim.animation import BRANCH_PREDICATES
+        from engine.anim.animation import BRANCH_PREDICATES, COUNT_PREDICATES
 
-        b = _mapping(top["branches"], ctx, "branches", BRANCH_PREDICATES)
-        kw["branches"] = tuple((k, _bool(v, ctx, f"branches.{k}")) for k, v in b.items())
+        b = _mapping(top["branches"], ctx, "branches", BRANCH_PREDICATES + COUNT_PREDICATES)
+        kw["branches"] = tuple((k, _count(v, ctx, f"branches.{k}") if k in COUNT_PREDICATES
+                                else _bool(v, ctx, f"branches.{k}")) for k, v in b.items())
     if "targets" in top:
         t = top["targets"]
         if not isinstance(t.value, dict):
