@@ -73,8 +73,8 @@ def branch_failures(animation: Animation, creature: Creature) -> list[str]:
             what = name[4:]
             have = counts[what]
             if (name.startswith("min_") and have < wanted) or (name.startswith("max_") and have > wanted):
-                out.append(f"it has {have} {what}, the animation needs {'at least' if name.startswith('min_') else 'at most'} "
-                           f"{wanted}")
+                bound = "at least" if name.startswith("min_") else "at most"
+                out.append(f"it has {have} {what}, the animation needs {bound} {wanted}")
             continue
         if name not in values:
             out.append(f"unknown predicate '{name}'")
