@@ -393,3 +393,17 @@ def test_path_follower_reaches_the_end():
     assert fol.done and np.hypot(ch.position[0] - 2.0, ch.position[1]) < 0.5
     with pytest.raises(GaitError):
         PathFollower([(0, 0)], 1.0, 1.0)
+
+
+def test_crowd_members_walk_as_alone(dog):
+    chars = [engine.Character(dog, position=(0.0, 2.0 * k, 0.0)) for k in range(3)]
+    for ch in chars:
+        ch.locomote((0.4, 0.0), 0.2)
+    crowd = engine.Crowd(chars)
+    alone = engine.Character(dog)
+    alone.locomote((0.4, 0.0), 0.2)
+    for _ in range(60):
+        crowd.tick(1 / 60)
+        alone.tick(1 / 60)
+    assert np.allclose(chars[0].world_positions, alone.world_positions, atol=1e-12)
+    assert chars[2].position[0] > 0.1
