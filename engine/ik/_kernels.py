@@ -47,7 +47,8 @@ INT_FIELDS = (
     "lp_parent",           # (nlp,) parent particle, -1 at a limb root (fixed to the spine)
     "lp_con",              # (nlp,) constraint to the parent particle, -1 at a limb root
     "lp_attach",           # (nlp,) spine body the limb hangs off
-    "lp_mode",             # (nlp,) orientation rebuild: 0 one axis, 1 two axes, 2 rigid on parent, 3 tip (no body)
+    "lp_mode",             # (nlp,) orientation rebuild: 0 one axis, 1 two axes, 2 rigid on parent,
+                           # 3 tip (no body), 4 carried by the parent and swung at its tip
     "lp_c1", "lp_c2",      # (nlp,) child particles giving the axes (-1 if unused)
     "lp_goal",             # (nlp,) goal slot of the particle's body, -1 if none
     "lc_a", "lc_b",        # (nlc,) limb constraints, leaves inward
@@ -1043,6 +1044,12 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
         rest_rot = qmul(q4(out_rot, s), q4(P.lp_rot_local, i))
         if mode == 2:
             rot = qmul(q4(out_rot, P.b_parent[b]), q4(P.b_local_rot, b))
+        elif mode == 4:
+            # A braced tip body: carried by its parent, then swung so its origin points
+            # at its tip particle (its twist is the parent's: never ill-defined).
+            carried = qmul(q4(out_rot, P.b_parent[b]), q4(P.b_local_rot, b))
+            rot = qmul(qbetween(qrot(carried, v3(P.b_joint_offset, b)),
+                                vsub(v3(lp_pos, P.lp_c1[i]), v3(lp_pos, i))), carried)
         else:
             c1 = P.lp_c1[i]
             e1r = vsub(v3(lp_rest, c1), v3(lp_rest, i))

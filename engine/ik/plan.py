@@ -174,6 +174,7 @@ class IKPlan:
                   self.plan_f4):
             a.flags.writeable = False
         self.blobs = (self.plan_i, self.plan_f, self.plan_f3, self.plan_f4)
+        self._checked = None  # the arrays solve_ik last validated (see solve_ik)
         self.arrays = K.PlanArrays(**{k: _ro(v) for k, v in _views(*self.blobs).items()})
 
     @property
@@ -511,9 +512,14 @@ def _build(c, goals: list[int], prm: IKParams):
                            local=_qrot(qs_inv, rr_pos[b] - rr_pos[s]), rot_local=_qmul(qs_inv, rr_rot[b]), goal=-1))
             lc.append(dict(a=lp_of[b], b=tip_of[b], len=off, inva=0.0 if b == r else 1.0, invb=1.0,
                            depth=int(c.body_depth[b]) + 1, plo=1.0, phi=1.0))
-            if b != r:
+            u = rr_joint[int(parent[b])] - rr_joint[b]
+            v = rr_pos[b] - rr_joint[b]
+            sin_rest = float(np.linalg.norm(np.cross(u, v)) / (np.linalg.norm(u) * off + 1e-300))
+            if b != r and sin_rest > 0.3:
                 # The brace: tip to the parent's joint at rest distance, so the body keeps
                 # its rest angle to its parent (softened by the goal's rotation weight).
+                # Only where that triangle is well shaped: a nearly straight one could fold
+                # to either side and flip the body.
                 pp = lp_of[int(parent[b])]
                 brace[b] = pp
                 lc.append(dict(a=pp, b=tip_of[b], len=float(np.linalg.norm(rr_pos[b] - rr_joint[int(parent[b])])),
@@ -577,8 +583,8 @@ def _build(c, goals: list[int], prm: IKParams):
             P["mode"], P["c1"], P["c2"] = 3, -1, -1
         elif not kids and P["body"] in tip_of:
             b = P["body"]
-            # Frame from the tip and the parent's joint where braced, else the tip alone.
-            P["mode"], P["c1"], P["c2"] = (1, tip_of[b], brace[b]) if b in brace else (0, tip_of[b], -1)
+            # Carried by the parent and swung at the tip where braced, else the tip alone.
+            P["mode"], P["c1"], P["c2"] = (4, tip_of[b], -1) if b in brace else (0, tip_of[b], -1)
         else:
             P["mode"] = 2 if not kids else (0 if len(kids) == 1 else 1)
             P["c1"] = lp_of[kids[0]] if kids else -1

@@ -100,19 +100,28 @@ def _ok(a, shape):
 def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
              scratch: np.ndarray) -> None:
     """Solve one character: writes the IK sub-tree's world poses into ``out_pos``/``out_rot``.
-    ``scratch`` comes from ``plan.make_scratch()``. Allocation-free after compilation."""
-    n = plan.creature.nbody
+    ``scratch`` comes from ``plan.make_scratch()``. Allocation-free after compilation.
+
+    The goal, output and scratch arrays are checked the first time they are used with this
+    plan and remembered (the plan holds them, so they cannot be freed and their identity
+    reused); the root pose is checked every call. Reshaping a remembered array in place
+    (``a.shape = ...``) is not noticed: don't."""
     gp, gr, gpw, grw = goals.goal_pos, goals.goal_rot, goals.goal_pos_weight, goals.goal_rot_weight
-    if not (_ok(root_pos, (3,)) and _ok(root_rot, (4,)) and _ok(gp, (n, 3)) and _ok(gr, (n, 4))
-            and _ok(gpw, (n,)) and _ok(grw, (n,)) and _ok(out_pos, (n, 3)) and _ok(out_rot, (n, 4))
-            and _ok(scratch, plan.scratch_shape)):
-        for name, a, shape in (("root_pos", root_pos, (3,)), ("root_rot", root_rot, (4,)),
-                               ("goal_pos", gp, (n, 3)), ("goal_rot", gr, (n, 4)),
+    seen = plan._checked
+    if not (seen is not None and seen[0] is gp and seen[1] is gr and seen[2] is gpw and seen[3] is grw
+            and seen[4] is out_pos and seen[5] is out_rot and seen[6] is scratch):
+        n = plan.creature.nbody
+        for name, a, shape in (("goal_pos", gp, (n, 3)), ("goal_rot", gr, (n, 4)),
                                ("goal_pos_weight", gpw, (n,)), ("goal_rot_weight", grw, (n,)),
                                ("out_pos", out_pos, (n, 3)), ("out_rot", out_rot, (n, 4)),
                                ("scratch", scratch, plan.scratch_shape)):
             if not _ok(a, shape):
                 raise _bad_array(name, a, shape)
+        plan._checked = (gp, gr, gpw, grw, out_pos, out_rot, scratch)
+    if not _ok(root_pos, (3,)):
+        raise _bad_array("root_pos", root_pos, (3,))
+    if not _ok(root_rot, (4,)):
+        raise _bad_array("root_rot", root_rot, (4,))
     b = plan.blobs
     code = K.solve_packed(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot,
                           scratch)
