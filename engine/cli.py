@@ -1,6 +1,6 @@
 """The ``menagerie`` command.
 
-    menagerie demo [--headless] [--out DIR]      the zoo (window, or PNGs without a display)
+    menagerie demo [--headless] [--gaits] [--out DIR]   the zoo (window, or PNGs without a display)
     menagerie view FILE [--snapshot OUT.png]     look at a creature file
     menagerie creatures list [DIR]               counts per creature
     menagerie creatures generate --seed S --count N --out DIR [--force]
@@ -96,9 +96,22 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    if args.gaits:
+        from authoring.gait_demo import run_gait_demo
+
+        return run_gait_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
     from authoring.demo import run_demo
 
-    return run_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
+    status = run_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
+    from authoring import render as rd
+
+    if status == 0 and (args.headless or rd.want_headless()):
+        # Without a window the demo also renders the gait panels (walking, trotting,
+        # crawling on rolling ground along curved paths) next to the zoo.
+        from authoring.gait_demo import run_gait_demo
+
+        status = run_gait_demo(headless=True, out_dir=os.path.join(args.out, "gaits"), seconds=args.seconds)
+    return status
 
 
 # -- entry point -------------------------------------------------------------------------
@@ -112,6 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
     demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
     demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds")
+    demo.add_argument("--gaits", action="store_true", help="the gait demo: creatures walking on rolling ground")
     demo.set_defaults(func=cmd_demo)
 
     view = sub.add_parser("view", help="look at a creature file")
