@@ -615,10 +615,10 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                     a = P.sc_a[c]
                     set3(sp_acc, a, vadd(v3(sp_acc, a), da))
                     continue
-                if kind == 0:
-                    # Before a spine constraint moves a particle, its pending pulls land.
-                    _flush_acc(sp_pos, sp_acc, P.sc_a[c])
-                    _flush_acc(sp_pos, sp_acc, P.sc_b[c])
+                # Before a spine constraint or an anchor moves a particle, its pending
+                # pulls land.
+                _flush_acc(sp_pos, sp_acc, P.sc_a[c])
+                _flush_acc(sp_pos, sp_acc, P.sc_b[c])
                 if kind == 3:
                     if buckle > 0.0:
                         relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], 0.0, 1.0, 1.0,
