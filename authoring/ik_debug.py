@@ -179,9 +179,10 @@ def render_hard_cases(creature, out_dir: str, width: int = 1280, height: int = 7
     paths = []
     for name, solvers in hard_cases(creature):
         scene = sc.Scene()
+        front = name == "conflict"  # arms spread sideways: look from the front
         for k, (label, s) in enumerate(solvers):
-            ik_scene(s, offset=(0.0, 1.6 * k, 0.0), label=label, scene=scene)
-        scene.view_azimuth = math.radians(-70.0)
+            ik_scene(s, offset=(0.0, (4.0 if front else 1.6) * k, 0.0), label=label, scene=scene)
+        scene.view_azimuth = math.radians(10.0 if front else -70.0)
         path = os.path.join(out_dir, f"ik_{name}.png")
         render_png(scene, path, width, height)
         paths.append(path)
