@@ -129,8 +129,8 @@ def hard_cases(creature):
     limbs = ["hand_l", "hand_r", "foot_l", "foot_r"]
     cases = []
 
-    def solver(goal_names, params=IKParams()):
-        return IKSolver(c, [c.body(n) for n in goal_names], params)
+    def solver(goal_names, params=None):
+        return IKSolver(c, [c.body(n) for n in goal_names], params or IKParams())
 
     # Reachable goals, and the same hand goals far out of reach.
     s1 = solver(limbs + ["head"])

@@ -12,8 +12,17 @@ import math
 import numpy as np
 import pytest
 
-from engine.ik import (IKError, IKGoals, IKParams, IKSolver, fit_quintic, plan_for, rest_pose_world, solve_ik,
-                       solve_ik_batch)
+from engine.ik import (
+    IKError,
+    IKGoals,
+    IKParams,
+    IKSolver,
+    fit_quintic,
+    plan_for,
+    rest_pose_world,
+    solve_ik,
+    solve_ik_batch,
+)
 from engine.ik import _kernels as K
 from engine.ik.testing import humanoid_creature, joint_world
 from engine.model import creature_from_text
@@ -416,7 +425,7 @@ def test_anti_buckling_blends_toward_rest(human):
         assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
         spine = list(human.spine_chain)
         worst = 0.0
-        for a, b in zip(spine[:-1], spine[1:]):
+        for a, b in zip(spine[:-1], spine[1:], strict=True):
             rel = K.qmul(K.qconj(tuple(s.out_rot[a])), tuple(s.out_rot[b]))
             rel0 = K.qmul(K.qconj(tuple(human.body_rest_rot[a])), tuple(human.body_rest_rot[b]))
             worst = max(worst, qangle(np.array(rel), np.array(rel0)))

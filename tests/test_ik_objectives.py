@@ -23,7 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine
-from engine.ik import IKSolver, plan_for
+from engine.ik import IKSolver
 from engine.ik import _kernels as K
 from engine.ik.testing import arm_chain_creature, humanoid_creature, joint_world, random_reachable_pose
 from engine.model import build_creature
@@ -191,7 +191,7 @@ def spine_fold(c, s):
     """Largest change, from rest, of the relative rotation between neighbouring spine bodies."""
     worst = 0.0
     chain = [b for b in c.spine_chain if s.plan.has_ik[b]]
-    for a, b in zip(chain[:-1], chain[1:]):
+    for a, b in zip(chain[:-1], chain[1:], strict=True):
         rel = K.qmul(K.qconj(tuple(s.out_rot[a])), tuple(s.out_rot[b]))
         rel0 = K.qmul(K.qconj(tuple(c.body_rest_rot[a])), tuple(c.body_rest_rot[b]))
         d = abs(float(np.dot(rel, rel0)))
@@ -285,7 +285,7 @@ def sweep(c, s, body, start, end, steps=400):
         prev_rot = rot
         joints = [joint_world(c, s.out_pos, s.out_rot, x) for x in chain]
         ns = []
-        for a, m, e in zip(joints[:-2], joints[1:-1], joints[2:]):
+        for a, m, e in zip(joints[:-2], joints[1:-1], joints[2:], strict=True):
             u, v = m - a, e - m
             n = np.cross(u, v)
             ns.append(n / (np.linalg.norm(u) * np.linalg.norm(v) + 1e-300))
@@ -295,7 +295,7 @@ def sweep(c, s, body, start, end, steps=400):
 
 def assert_no_flip(normals, min_bend=0.05):
     for k in range(len(normals) - 1):
-        for n0, n1 in zip(normals[k], normals[k + 1]):
+        for n0, n1 in zip(normals[k], normals[k + 1], strict=True):
             if np.linalg.norm(n0) > min_bend and np.linalg.norm(n1) > min_bend:
                 assert n0 @ n1 > 0.0, f"bend side flipped at step {k}"
 

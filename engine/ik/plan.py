@@ -457,7 +457,7 @@ def _build(c, goals: list[int], prm: IKParams):
 
     # Rest tangents at the chain particles, by the same formulas as the solve.
     ch_tan = []
-    for k, s in enumerate(ch):
+    for s in ch:
         pi_, pp = sp_rest_arr[s["particle"]], sp_rest_arr[s["prev"]]
         if s["next"] >= 0:
             t = 0.5 * (sp_rest_arr[s["next"]] - pp)
@@ -553,9 +553,9 @@ def _build(c, goals: list[int], prm: IKParams):
     # backward otherwise, like elbows; down when the chain runs along x) so the solver
     # always bends it the same way.
     feet = (caps & np.uint32(FOOT)) != 0
-    for i, P in enumerate(lp):
+    for P in lp:
         P["init"] = P["local"].copy()
-    for i, P in enumerate(lp):
+    for P in lp:
         if P["parent"] < 0 or len(P["kids"]) != 1 or P.get("tip"):
             continue
         b = P["body"]
@@ -654,7 +654,8 @@ def _build(c, goals: list[int], prm: IKParams):
         ag_goal_adr=i32(np.r_[0, np.cumsum([len(m) for m in ag_goal])[:-1]] if ag_goal else []),
         ag_goal_num=i32([len(m) for m in ag_goal]),
         ag_moved=i32([x for m in ag_moved for x in m]), ag_goal=i32([x for m in ag_goal for x in m]),
-        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_lpj=goal_lpj, goal_lproot=goal_lproot, goal_limb_root=i32(goal_limb_root),
+        goal_body=i32(goals), goal_sp=i32(goal_sp), goal_lp=goal_lp, goal_lpj=goal_lpj, goal_lproot=goal_lproot,
+        goal_limb_root=i32(goal_limb_root),
         scratch_layout=layout,
         b_rootrel_rot=f64(rr_rot, 4), b_rootrel_pos=f64(rr_pos, 3), b_rootrel_joint=f64(rr_joint, 3),
         b_joint_offset=f64(c.body_joint_offset, 3), b_local_rot=f64(c.body_local_rot, 4),

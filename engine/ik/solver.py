@@ -94,7 +94,8 @@ def _ok(a, shape):
     if type(a) is not np.ndarray or a.shape != shape or a.dtype is not _F64:
         return False
     st = a.strides
-    return st[-1] == 8 and (len(st) == 1 or st[-2] == 8 * shape[-1]) and (len(st) < 3 or st[-3] == 8 * shape[-1] * shape[-2])
+    return (st[-1] == 8 and (len(st) == 1 or st[-2] == 8 * shape[-1])
+            and (len(st) < 3 or st[-3] == 8 * shape[-1] * shape[-2]))
 
 
 def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
