@@ -47,6 +47,8 @@ class IKParams:
     limb_shrink: float = 0.98     # limb constraints project to [shrink, stretch]
     limb_stretch: float = 1.02
     spine_rootward_invmass: float = 0.5  # rootward end of a spine constraint moves half as much
+    limb_child_invmass: float = 0.25  # outer end of a limb constraint moves less: inward sweeps drag the
+                                      # parents toward the goal (FABRIK-like), long chains settle faster
     buckle_on: float = math.radians(60.0)    # spine fold (over rest) where anti-buckling starts
     buckle_full: float = math.radians(100.0)  # ... and where it is fully on
     anti_buckling: bool = True
@@ -491,8 +493,8 @@ def _build(c, goals: list[int], prm: IKParams):
             for k in kids:
                 L = float(np.linalg.norm(rr_joint[k] - rr_joint[b]))
                 lp[lp_of[k]]["con"] = len(lc)
-                lc.append(dict(a=lp_of[b], b=lp_of[k], len=L, inva=0.0 if b == r else 1.0, invb=1.0,
-                               depth=int(c.body_depth[k])))
+                lc.append(dict(a=lp_of[b], b=lp_of[k], len=L, inva=0.0 if b == r else 1.0,
+                               invb=prm.limb_child_invmass, depth=int(c.body_depth[k])))
             for x in range(len(kids)):
                 for y in range(x + 1, len(kids)):
                     L = float(np.linalg.norm(rr_joint[kids[y]] - rr_joint[kids[x]]))
