@@ -166,6 +166,10 @@ def test_invalid_arrays_and_goals(mini):
         solve_ik(s.plan, rp, rr.astype(np.float32), s.goals, s.out_pos, s.out_rot, s.scratch)
     with pytest.raises(IKError, match="field 'scratch'"):
         solve_ik(s.plan, rp, rr, s.goals, s.out_pos, s.out_rot, np.zeros(3))
+    frozen = s.out_pos.copy()
+    frozen.flags.writeable = False
+    with pytest.raises(IKError, match="field 'out_pos'.*read-only"):
+        solve_ik(s.plan, rp, rr, s.goals, frozen, s.out_rot, s.scratch)
     before = s.out_pos.copy()
     s.goals.set(foot, pos=(np.nan, 0.0, 0.0))
     with pytest.raises(IKError, match="body 'foot_l'"):

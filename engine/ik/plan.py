@@ -177,6 +177,7 @@ class IKPlan:
             a.flags.writeable = False
         self.blobs = (self.plan_i, self.plan_f, self.plan_f3, self.plan_f4)
         self._checked = None  # the arrays solve_ik last validated (see solve_ik)
+        self._entry = None    # the compiled solve for their types (None: not looked up yet)
         self.arrays = K.PlanArrays(**{k: _ro(v) for k, v in _views(*self.blobs).items()})
 
     @property

@@ -27,6 +27,8 @@ bodies in ``plan.goal_bodies`` are read.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from engine.ik import _kernels as K
@@ -87,6 +89,7 @@ def _bad_array(name, a, shape):
 
 
 _F64 = np.dtype(np.float64)
+_NO_FASTCALL = bool(os.environ.get("MENAGERIE_NO_FASTCALL"))
 
 
 def _ok(a, shape):
@@ -118,14 +121,30 @@ def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarr
                                ("scratch", scratch, plan.scratch_shape)):
             if not _ok(a, shape):
                 raise _bad_array(name, a, shape)
+        for name, a in (("out_pos", out_pos), ("out_rot", out_rot), ("scratch", scratch)):
+            if not a.flags.writeable:
+                raise IKError("the solver writes into this array; it is read-only", field=name)
         plan._checked = (gp, gr, gpw, grw, out_pos, out_rot, scratch)
+        plan._entry = None
     if not _ok(root_pos, (3,)):
         raise _bad_array("root_pos", root_pos, (3,))
     if not _ok(root_rot, (4,)):
         raise _bad_array("root_rot", root_rot, (4,))
     b = plan.blobs
-    code = K.solve_packed(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot,
-                          scratch)
+    entry = plan._entry
+    if entry:
+        # The compiled overload for these (validated) array types, called directly: skips
+        # numba's per-call type resolution (as engine._fastcall does for the runtime).
+        code = entry(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch)
+    else:
+        args = (b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch)
+        code = K.solve_packed(*args)
+        if entry is None and not _NO_FASTCALL:
+            try:
+                sig = tuple(K.solve_packed.typeof_pyval(a) for a in args)
+                plan._entry = K.solve_packed.overloads[sig].entry_point
+            except Exception:  # an unusual numba: keep going through the dispatcher
+                plan._entry = False
     if code != -1:
         _raise_bad(plan, code)
 
