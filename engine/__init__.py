@@ -16,8 +16,12 @@ The animation and runtime names load on first use, so tools that only read creat
 files do not pay for numba.
 """
 
-from engine.errors import CreatureError, DataError, MenagerieError
-from engine.model import Creature, CreatureDef, build_creature, load_creature
+from engine._cache import refresh_stale_kernel_cache
+
+refresh_stale_kernel_cache()   # numba's cache does not see changes in called modules
+
+from engine.errors import CreatureError, DataError, MenagerieError  # noqa: E402
+from engine.model import Creature, CreatureDef, build_creature, load_creature  # noqa: E402
 
 _LAZY = {
     "Animation": ("engine.anim", "Animation"),
