@@ -850,9 +850,17 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
             if w <= 0.0:
                 continue
-            pc = v3(lp_pos, P.goal_lp[gi])
+            # Aim the goal body's joint particle where it has one (the tip particle at a
+            # foot's origin sits off the knee's bend plane: aiming it would read a forward
+            # knee as bent backward), else the goal particle itself.
+            if P.goal_lpj[gi] >= 0:
+                pc = v3(lp_pos, P.goal_lpj[gi])
+                gt = v3(lg_jtarget, gi)
+            else:
+                pc = v3(lp_pos, P.goal_lp[gi])
+                gt = v3(lg_target, gi)
             cur = vadd(cur, vscale(pc, w))
-            tgt = vadd(tgt, vscale(vlerp(pc, v3(lg_target, gi), w), w))
+            tgt = vadd(tgt, vscale(vlerp(pc, gt, w), w))
             wsum += w
         if wsum <= 0.0:
             continue
