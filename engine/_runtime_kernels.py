@@ -15,23 +15,18 @@ from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into
 
 
 @njit(cache=True)
-def fill_body_rows(tables, n_ext, char_pos, pair_char):
-    """Body rows of each pair's target table: that character's current pose."""
-    for k in range(pair_char.shape[0]):
-        c = pair_char[k]
-        for b in range(char_pos.shape[1]):
-            for j in range(3):
-                tables[k, n_ext + b, j] = char_pos[c, b, j]
-
-
-@njit(cache=True)
 def goals_pairs(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
-                sg_pos, sg_rot, sg_pw, sg_rw):
+                sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos):
     """Sample, specialize and blend one bound variant for each (character, slot) pair
-    playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``."""
+    playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``. The
+    body rows of each pair's target table (after its ``n_ext`` external rows) are filled
+    first from that character's current pose ``char_pos``."""
     for k in range(times.shape[0]):
         c = pair_char[k]
         s = pair_slot[k]
+        for b in range(char_pos.shape[1]):
+            for j in range(3):
+                tables[k, n_ext + b, j] = char_pos[c, b, j]
         goals_kernel(cv, consts, pos_on, rot_on, tables[k], times[k], rest_pos, rest_rot, scratch,
                      sg_pos[c, s], sg_rot[c, s], sg_pw[c, s], sg_rw[c, s])
 

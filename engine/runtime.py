@@ -73,20 +73,19 @@ class _Clip:
         self.scratch = make_scratch(animation, bound)
         self.n_ext = len(bound.target_names)
         self.table = np.zeros((1, self.n_ext + binding.creature.nbody, 3))
-        self.calls: dict = {}      # (stack id, row, slot) -> (fill rows, goals) bound kernels
+        self.calls: dict = {}      # (stack id, row, slot) -> the bound goals kernel
 
-    def bound_calls(self, char: Character, slot: int) -> tuple:
+    def bound_call(self, char: Character, slot: int) -> BoundKernel:
         s, r = char._stack, char._row
         key = (id(s), r, slot)
         hit = self.calls.get(key)
         if hit is None:
             c = char.creature
             bv = self.bound
-            hit = (BoundKernel(RK.fill_body_rows, (self.table, self.n_ext, s.char_pos, _ROW[r])),
-                   BoundKernel(RK.goals_pairs, (self.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
-                                                self.table, char._slot_time[slot], _ROW[r], _ROW[slot],
-                                                c.body_rest_pos, c.body_rest_rot, self.scratch, s.sg_pos, s.sg_rot,
-                                                s.sg_pw, s.sg_rw)))
+            hit = BoundKernel(RK.goals_pairs, (self.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
+                                               self.table, char._slot_time[slot], _ROW[r], _ROW[slot],
+                                               c.body_rest_pos, c.body_rest_rot, self.scratch, s.sg_pos, s.sg_rot,
+                                               s.sg_pw, s.sg_rw, self.n_ext, s.char_pos))
             self.calls = {key: hit}   # a clip plays in one place at a time
         return hit
 
@@ -389,10 +388,9 @@ def _sample_character(char: Character) -> None:
         if h is None:
             continue
         clip: _Clip = h.payload
-        _fill_external(char, clip, clip.table[0])
-        fill, goals = clip.bound_calls(char, slot)
-        fill.call()
-        goals.call()
+        if clip.n_ext:
+            _fill_external(char, clip, clip.table[0])
+        clip.bound_call(char, slot).call()
 
 
 def _blend_stack(s: _Stack, player: Player) -> None:
@@ -621,11 +619,10 @@ class _Group:
             RK.gather_times(s.player.time, pair_char, pair_slot, times)
             for i, clip, m in external:
                 _fill_external(m, clip, tables[i])
-            RK.fill_body_rows(tables, clip0.n_ext, s.char_pos, pair_char)
             bv = clip0.bound
             RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
                            pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
-                           s.sg_rot, s.sg_pw, s.sg_rw)
+                           s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, s.char_pos)
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""

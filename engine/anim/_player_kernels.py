@@ -24,8 +24,10 @@ FLAG_WRAPPED = 4     # a looping clip wrapped this frame
 def advance_slots(dt, slot_active, slot_time, slot_prev_time, slot_speed, slot_length, slot_loop,
                   slot_weight, slot_fade, slot_fade_in_rate, slot_fade_out_rate, slot_stopping,
                   slot_layer, layer_weight, slot_effective, slot_flags):
-    """Advance all slots; shapes (nchar, nslot) except ``layer_weight`` (nchar, nlayer)."""
+    """Advance all slots; shapes (nchar, nslot) except ``layer_weight`` (nchar, nlayer).
+    Returns how many slots raised a flag (the caller's Python runs only when it is > 0)."""
     nchar, nslot = slot_active.shape
+    flagged = 0
     for c in range(nchar):
         for s in range(nslot):
             slot_flags[c, s] = 0
@@ -73,3 +75,6 @@ def advance_slots(dt, slot_active, slot_time, slot_prev_time, slot_speed, slot_l
             slot_fade[c, s] = f
             smooth = f * f * (3.0 - 2.0 * f)
             slot_effective[c, s] = layer_weight[c, slot_layer[c, s]] * slot_weight[c, s] * smooth
+            if slot_flags[c, s] != 0:
+                flagged += 1
+    return flagged

@@ -214,8 +214,8 @@ class Player:
         bound = self._advance_call
         if bound is None or bound.args[1] is not self.arrays.active:
             bound = self._advance_call = bound_advance(self.arrays)
-        bound.call(float(dt))
-        self.after_advance()
+        if bound.call(float(dt)) or self.has_event_clips:
+            self.after_advance()
 
     def after_advance(self) -> None:
         """Events, clip ends and the queue: Python work only when something happened."""
