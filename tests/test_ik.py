@@ -24,55 +24,9 @@ from engine.ik import (
     solve_ik_batch,
 )
 from engine.ik import _kernels as K
+from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test biped
 from engine.ik.testing import humanoid_creature, joint_world
 from engine.model import creature_from_text
-
-MINI = """\
-format: 1
-name: mini
-description: tiny test biped
-bodies:
-  - name: chest
-    caps: [spine]
-    pos: [0, 0, 1.3]
-    extents: [0.1, 0.15, 0.15]
-  - name: pelvis
-    parent: chest
-    caps: [spine]
-    pos: [0, 0, 1.0]
-    joint: [0, 0, 1.15]
-    extents: [0.1, 0.15, 0.1]
-  - name: thigh_l
-    parent: pelvis
-    caps: [limb]
-    pos: [0, 0.1, 0.75]
-    joint: [0, 0.1, 0.95]
-    extents: [0.05, 0.05, 0.2]
-  - name: foot_l
-    parent: thigh_l
-    caps: [foot]
-    pos: [0.05, 0.1, 0.05]
-    joint: [0, 0.1, 0.5]
-    extents: [0.1, 0.04, 0.04]
-  - name: thigh_r
-    parent: pelvis
-    caps: [limb]
-    pos: [0, -0.1, 0.75]
-    joint: [0, -0.1, 0.95]
-    extents: [0.05, 0.05, 0.2]
-  - name: foot_r
-    parent: thigh_r
-    caps: [foot]
-    pos: [0.05, -0.1, 0.05]
-    joint: [0, -0.1, 0.5]
-    extents: [0.1, 0.04, 0.04]
-  - name: head
-    parent: chest
-    caps: [head, mouth]
-    pos: [0, 0, 1.6]
-    joint: [0, 0, 1.45]
-    extents: [0.1, 0.1, 0.12]
-"""
 
 # A planar two-bone arm: shoulder S = (0.1, 0, 1), elbow E = (0.6, 0, 1.1), wrist
 # W = (1.1, 0, 1.0); both bones 0.5099 m long, bent upward (+z) at rest.

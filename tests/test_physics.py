@@ -21,6 +21,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine
+from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test biped
 from engine.model import creature_from_text
 from engine.physics import (
     BodySpec,
@@ -40,53 +41,6 @@ from engine.physics import (
     step,
 )
 from engine.physics.model import SHAPE_BOX, SHAPE_CAPSULE, SHAPE_SPHERE
-
-MINI = """\
-format: 1
-name: mini
-description: tiny test biped
-bodies:
-  - name: chest
-    caps: [spine]
-    pos: [0, 0, 1.3]
-    extents: [0.1, 0.15, 0.15]
-  - name: pelvis
-    parent: chest
-    caps: [spine]
-    pos: [0, 0, 1.0]
-    joint: [0, 0, 1.15]
-    extents: [0.1, 0.15, 0.1]
-  - name: thigh_l
-    parent: pelvis
-    caps: [limb]
-    pos: [0, 0.1, 0.75]
-    joint: [0, 0.1, 0.95]
-    extents: [0.05, 0.05, 0.2]
-  - name: foot_l
-    parent: thigh_l
-    caps: [foot]
-    pos: [0.05, 0.1, 0.05]
-    joint: [0, 0.1, 0.5]
-    extents: [0.1, 0.04, 0.04]
-  - name: thigh_r
-    parent: pelvis
-    caps: [limb]
-    pos: [0, -0.1, 0.75]
-    joint: [0, -0.1, 0.95]
-    extents: [0.05, 0.05, 0.2]
-  - name: foot_r
-    parent: thigh_r
-    caps: [foot]
-    pos: [0.05, -0.1, 0.05]
-    joint: [0, -0.1, 0.5]
-    extents: [0.1, 0.04, 0.04]
-  - name: head
-    parent: chest
-    caps: [head, mouth]
-    pos: [0, 0, 1.6]
-    joint: [0, 0, 1.45]
-    extents: [0.1, 0.1, 0.12]
-"""
 
 ID = np.array([1.0, 0.0, 0.0, 0.0])
 DT = 0.0005
