@@ -132,6 +132,53 @@ def test_tips_lag_more_than_roots(creature):
     assert dev[t3] > dev[t1] > 0.0
 
 
+def _long_tail(links: int = 8) -> str:
+    lines = ["format: 1", "name: longtail", "description: hips on two legs and a long passive tail", "bodies:",
+             "  - {name: hips, caps: [spine], pos: [0, 0, 0.5], extents: [0.15, 0.1, 0.08]}",
+             "  - {name: leg_l, parent: hips, caps: [limb, foot], pos: [0, 0.08, 0.22], joint: [0, 0.08, 0.44], "
+             "extents: [0.03, 0.03, 0.22]}",
+             "  - {name: leg_r, parent: hips, caps: [limb, foot], pos: [0, -0.08, 0.22], joint: [0, -0.08, 0.44], "
+             "extents: [0.03, 0.03, 0.22]}"]
+    for k in range(links):
+        parent = "hips" if k == 0 else f"tail{k}"
+        x0 = -0.15 - 0.2 * k
+        lines.append(f"  - {{name: tail{k + 1}, parent: {parent}, caps: [tail, limb], pos: [{x0 - 0.1:.2f}, 0, 0.5], "
+                     f"joint: [{x0:.2f}, 0, 0.5], extents: [0.1, 0.03, 0.03]}}")
+    return "\n".join(lines) + "\n"
+
+
+def test_a_passive_chain_is_not_a_whip():
+    """The hips drop by d and stop: no link of a long passive tail strays further than d
+    from where the rigid tail would be, and the tail lags the right way (up). (A chain of
+    springs each driven by its own jiggling parent is a whip: this tail's tip swung 6.7 d.)"""
+    c = creature_from_text(_long_tail())
+    rig = JiggleRig.for_creature(c)
+    driven = np.zeros(c.nbody, np.bool_)
+    for name in ("hips", "leg_l", "leg_r"):
+        driven[c.body(name)] = True
+    state = JiggleState(c.nbody)
+    pos = np.array(c.body_rest_pos, dtype=float)
+    rot = np.array(c.body_rest_rot, dtype=float)
+    d, dt = 0.2, 1 / 60
+    tail = [i for i in range(c.nbody) if not driven[i]]
+    worst = np.zeros(c.nbody)
+    tip = c.body(f"tail{len(tail)}")
+    first_lag = None
+    for f in range(240):
+        t = min(f * dt / 0.3, 1.0)
+        drop = d * (3 * t * t - 2 * t * t * t)
+        pos[0], rot[0] = (0.0, 0.0, 0.5 - drop), (1.0, 0.0, 0.0, 0.0)
+        for i in (c.body("leg_l"), c.body("leg_r")):
+            pos[i] = pos[0] + c.body_local_pos[i]
+        jiggle_step(rig, state, driven, pos, rot, dt)
+        rigid = pos[0] + (c.body_rest_pos - c.body_rest_pos[0])     # the hips only translate
+        worst = np.maximum(worst, np.linalg.norm(pos - rigid, axis=1))
+        if f == 10:
+            first_lag = pos[tip, 2] - rigid[tip, 2]
+    assert np.all(worst[tail] > 0.0) and np.all(worst[tail] <= d), worst[tail]
+    assert first_lag > 0.0
+
+
 def test_body_becoming_passive_starts_where_it_was(creature):
     rig = JiggleRig.for_creature(creature)
     state = JiggleState(creature.nbody)

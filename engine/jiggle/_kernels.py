@@ -18,7 +18,16 @@ integrated by implicit (backward) Euler, which is unconditionally stable, so any
     e_{n+1}  = e_n + dt e'_{n+1}
 
 The target's change of velocity du* enters as an impulse on the error velocity: when the
-parent stops suddenly the tip swings on, then settles. Once |e| and |e'| fall below a
+parent stops suddenly the tip swings on, then settles.
+
+The rigid target p* of a body is where the *rigid* chain from its driven ancestor would put
+its tip (every passive body between them at its rest offset), not where its jiggling parent
+is: each spring is driven by the motion of the driven ancestor only. Driving a link by its
+parent's own swing makes a chain of springs a whip: on a 6-link, 4.5 m tail a 0.8 m drop of
+the hips swung the tip 3 m and rang for seconds. The body is still attached to its posed
+(jiggling) parent, so the chain stays connected, and its lever points from there to its
+simulated tip (the rigid chain's tip plus its lag): the lag is a displacement of the tip,
+not a turn the links further out inherit and add to. Once |e| and |e'| fall below a
 sleep threshold they are set to exactly zero, so a body at rest is exactly at rest (no
 endless twitching). The error is clamped to a fraction of the lever length so a teleport
 or a huge dt cannot fold a body over.
@@ -64,19 +73,39 @@ def jiggle_kernel(
     final_rot = np.empty(4)
     offset = np.empty(3)
     tmp = np.empty(3)
+    # Rigid chain pose of every passive body: joint position and rotation it would have at
+    # its rest offsets below its driven ancestor (bodies are ordered parents first).
+    chain_joint = np.empty((n, 3))
+    chain_rot = np.empty((n, 4))
+    chain_origin = np.empty(3)
     for i in range(n):
         if driven[i]:
             state_active[i] = False
             continue
         p = body_parent[i]
-        # Rigid pose at the rest offset from the parent.
-        quat_mul_into(world_rot[p], body_local_rot[i], rigid_rot)
+        # Where the rigid chain puts the parent: the parent itself when it is driven.
+        if driven[p]:
+            quat_mul_into(world_rot[p], body_local_rot[i], chain_rot[i])
+            quat_rotate_into(world_rot[p], body_local_joint[i], tmp)
+            for k in range(3):
+                chain_joint[i, k] = world_pos[p, k] + tmp[k]
+        else:
+            quat_mul_into(chain_rot[p], body_local_rot[i], chain_rot[i])
+            quat_rotate_into(chain_rot[p], body_joint_offset[p], chain_origin)
+            quat_rotate_into(chain_rot[p], body_local_joint[i], tmp)
+            for k in range(3):
+                chain_joint[i, k] = chain_joint[p, k] + chain_origin[k] + tmp[k]
+        # The body hangs at its joint on the posed (possibly jiggling) parent; its
+        # rotation is the rigid chain's turned by its own lag, so lags do not compound
+        # down the chain; the spring's target tip is the rigid chain's (module note).
         quat_rotate_into(world_rot[p], body_local_joint[i], tmp)
         for k in range(3):
             joint_world[k] = world_pos[p, k] + tmp[k]
+        for k in range(4):
+            rigid_rot[k] = chain_rot[i, k]
         quat_rotate_into(rigid_rot, jig_lever[i], lever_rigid)
         for k in range(3):
-            target[k] = joint_world[k] + lever_rigid[k]
+            target[k] = chain_joint[i, k] + lever_rigid[k]
 
         if not simulate or jig_omega[i] <= 0.0:
             state_active[i] = False
@@ -121,8 +150,11 @@ def jiggle_kernel(
                 for k in range(3):
                     state_err[i, k] = 0.0
                     state_err_vel[i, k] = 0.0
+            # Point the lever from where the body hangs at its simulated tip (the rigid
+            # chain's tip plus the lag), so a link's lag is a displacement of its own tip,
+            # not a turn that every link further out would inherit.
             for k in range(3):
-                lever_sim[k] = lever_rigid[k] + state_err[i, k]
+                lever_sim[k] = target[k] + state_err[i, k] - joint_world[k]
             quat_between_into(lever_rigid, lever_sim, turn)
             quat_mul_into(turn, rigid_rot, final_rot)
 
