@@ -23,6 +23,11 @@ import math
 from numba import njit
 
 STANCE, FLIGHT, LANDING, OWNED = 0, 1, 2, 3
+#: Compass legs: how far (share of leg length) a planted rigid leg may hang before it
+#: lifts off, and how close a swinging one must come to the ground to touch down.
+COMPASS_TOL = 5e-4
+#: Compass legs: ground clearance of the swing foot, share of the style's foot lift.
+COMPASS_CLEAR = 0.1
 
 
 @njit(cache=True, inline="always")
@@ -80,7 +85,8 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
               step_progress, step_prev_u, step_parked, step_lift_u, step_done, foot_body, foot_neutral,
               foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, goal_pw, query,
-              place_z, prev_root_pos, prev_root_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, group_stretch):
+              place_z, prev_root_pos, prev_root_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, group_stretch,
+              group_support):
     """Stage 1 of a frame (see the module docstring).
 
     place (3,)     new placement x, y, heading yaw (world)
@@ -99,6 +105,9 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                    pose (character space), to see how far planted legs are stretched
     group_stretch (G,) hip-to-foot distance over chain length the IK was verified to meet:
                    a planted foot past it takes a rescue step
+    group_support (G,) int32 scratch: planted compass (rigid-legged) steppers per group. The
+                   last one never lifts (it holds the hips, see ``gait_pose``), and a compass
+                   stepper's flight ends when its foot meets the ground, not on the clock
     """
     nfoot = foot_body.shape[0]
     px, py, yaw = place[0], place[1], place[2]
@@ -106,6 +115,10 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
     # 1. group cycles
     for g in range(group_phase.shape[0]):
         group_phase[g] = (group_phase[g] + group_rate[g] * dt) % 1.0
+        group_support[g] = 0
+    for s in range(step_group.shape[0]):
+        if step_state[s] == STANCE and foot_rigid[step_foot_adr[s]] == 1:
+            group_support[step_group[s]] += 1
     # 2. steppers
     for s in range(step_group.shape[0]):
         g = step_group[s]
@@ -163,6 +176,18 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                             if math.sqrt((jx - hx) ** 2 + (jy - hy) ** 2 + (jz - hz) ** 2) > (
                                     group_stretch[g] * foot_chain[f]):
                                 lift = True      # ... or is stretched past what the IK was seen to meet
+            if lift and foot_rigid[a0] == 1:
+                # a compass stepper lifts only while another one holds the hips, and on the
+                # clock only from a full stance (setting off): in a walk it lifts when the
+                # hips rise over the new foot and leave it hanging (``gait_pose``)
+                airborne = False
+                for k in range(step_group.shape[0]):
+                    if step_group[k] == g and foot_rigid[step_foot_adr[k]] == 1 and step_state[k] == FLIGHT:
+                        airborne = True
+                if group_support[g] <= 1 or (airborne and disp <= group_sweep[g]):
+                    lift = False
+                else:
+                    group_support[g] -= 1
             if lift:
                 step_state[s] = FLIGHT
                 step_progress[s] = 0.0
@@ -180,7 +205,8 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
             step_progress[s] += rate * dt
             if step_progress[s] >= 1.0:
                 step_progress[s] = 1.0
-                step_state[s] = LANDING
+                if foot_rigid[a0] == 0:
+                    step_state[s] = LANDING      # compass feet land in gait_pose, on contact
         if step_state[s] == FLIGHT or step_state[s] == LANDING:
             # touchdown target: the rest spot under the placement predicted for the middle
             # of the coming stance, so the stance sweeps evenly around the rest spot
@@ -235,12 +261,94 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
+@njit(cache=True, inline="always")
+def _qrot(w, x, y, z, vx, vy, vz):
+    """v rotated by the unit quaternion (w, x, y, z)."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz), vz + w * tz + (x * ty - y * tx)
+
+
+@njit(cache=True, inline="always")
+def _foot_rel_rot(rel_yaw, foot_tilt, pitch):
+    """A foot goal's rotation relative to its rest rotation (character space): yaw about
+    z, the slope tilt, the flight pitch about the left axis (as the goals are written)."""
+    h = 0.5 * rel_yaw
+    q = _qmul(math.cos(h), 0.0, 0.0, math.sin(h), foot_tilt[0], foot_tilt[1], foot_tilt[2], foot_tilt[3])
+    return _qmul(q[0], q[1], q[2], q[3], math.cos(0.5 * pitch), 0.0, -math.sin(0.5 * pitch), 0.0)
+
+
+@njit(cache=True, inline="always")
+def _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos, cy, sy, yaw,
+                pitch, root_pos, root_rot):
+    """How far the root must rise (m, negative: sink) for a rigid leg's hip to sit exactly
+    one leg length above its foot's joint (the foot as its goal rotation leaves it)."""
+    rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch)
+    ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
+    dx = foot_world[f, 0] - place_pos[0]
+    dy = foot_world[f, 1] - place_pos[1]
+    jx = cy * dx + sy * dy + ox
+    jy = -sy * dx + cy * dy + oy
+    jz = foot_world[f, 2] - place_pos[2] + oz
+    hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+    need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+    return jz + need - hz
+
+
+@njit(cache=True)
+def _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_progress, step_parked, step_lift_u,
+                  step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt,
+                  foot_lift, foot_lift_yaw, place_pos, cy, sy, yaw, root_pos, root_rot, bob_state):
+    """Hip height of compass legs and lift-off of the planted ones left hanging (see the
+    comment in ``gait_pose``)."""
+    have = False
+    dz_top = -1e9
+    for s in range(step_group.shape[0]):
+        if step_state[s] != STANCE:
+            continue
+        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+            if foot_rigid[f] == 0:
+                continue
+            dz = _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos,
+                             cy, sy, yaw, 0.0, root_pos, root_rot)
+            dz_top = max(dz_top, dz)
+            have = True
+    if have:
+        root_pos[2] += dz_top
+        bob_state[2] = root_pos[2]
+        bob_state[3] = 1.0
+        # planted compass legs left hanging lift off (the hips went up over another foot)
+        for s in range(step_group.shape[0]):
+            if step_state[s] != STANCE or foot_rigid[step_foot_adr[s]] == 0:
+                continue
+            hang = 0.0
+            for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+                dz = _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos,
+                                 cy, sy, yaw, 0.0, root_pos, root_rot)
+                hang = max(hang, -dz)
+            if hang > COMPASS_TOL * foot_chain[step_foot_adr[s]]:
+                step_state[s] = FLIGHT
+                step_progress[s] = 0.0
+                step_parked[s] = 0
+                step_lift_u[s] = step_u[s]
+                step_done[s] = 1
+                for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+                    for j in range(3):
+                        foot_lift[f, j] = foot_world[f, j]
+                    foot_lift_yaw[f] = foot_yaw[f]
+    elif bob_state[3] > 0.0:
+        root_pos[2] = bob_state[2]
+    return dz_top if have else 0.0
+
+
 @njit(cache=True)
 def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, group_duty, step_group, step_side,
               step_lift_scale, step_duty_scale, step_foot_adr, step_foot_num, step_state, step_progress, step_u,
               foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_world,
               foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, foot_tilt, root_dq, root_dpos,
-              bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+              bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, foot_bias,
+              step_lift_u, step_parked, step_done):
     """Stage 2 of a frame (see the module docstring).
 
     place_pos (3,), yaw        this frame's placement (world)
@@ -248,10 +356,14 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
     foot_tilt (4,)             slope rotation of planted feet, character space
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
-    bob_state (2,), bob_alpha  low-pass filtered hip bob and sway (in/out) and the filter's
-                               share per frame (many fast feet must not shake the hips)
+    bob_state (4,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
+                               height and whether it is set (in/out), and the filter's share per
+                               frame (many fast feet must not shake the hips)
     foot_hip/jointrel/chain/rigid  see ``engine.gait.rig`` (compass legs)
     root_pos, root_rot, goal_* in/out (character space)
+    step_lift_u, step_parked, step_done (S,)  as in ``gait_plan`` (a hanging compass leg lifts here)
+    foot_bias (F, 3)           the IK's constant miss of each foot at the rest stance
+                               (character space): taken off the goal so the output lands on the spot
     """
     nfoot = foot_body.shape[0]
     ngroup = group_lift.shape[0]
@@ -308,40 +420,61 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     q = _qmul(root_dq[0], root_dq[1], root_dq[2], root_dq[3], root_rot[0], root_rot[1], root_rot[2], root_rot[3])
     for j in range(4):
         root_rot[j] = q[j]
-    # compass legs (one rigid segment, no knee): the planted feet hold the hips at leg's
-    # length; each stance foot votes for the hip height it needs, weighted by how deep in
-    # its stance it is (zero at touchdown and lift-off, so the height never jumps)
-    wsum = 0.0
-    dzsum = 0.0
-    dzmax = 1e9
+    # compass legs (one rigid segment, no knee; section 4.2: "the hips are translated and
+    # rotated as the feet are moved"). A planted rigid leg holds its hip exactly one leg
+    # length from its foot joint, so the hips ride on arcs over the planted feet: their
+    # height is computed here from the leg length, never asked of the IK. Several planted
+    # legs ask different heights; the hips take the highest, and a planted leg that would
+    # then hang (its hip further than a leg length) lifts off at once: double support of a
+    # rigid-legged walk is instantaneous, as in a compass gait. With no rigid leg planted
+    # the hips keep their last height (bob_state[2], valid when bob_state[3] > 0).
+    dz_top = _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_progress, step_parked,
+                           step_lift_u, step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw, foot_hip,
+                           foot_chain, foot_tilt, foot_lift, foot_lift_yaw, place_pos, cy, sy, yaw, root_pos, root_rot,
+                           bob_state)
+    # compass legs in flight swing on the sphere of their leg around the hip and touch down
+    # where the sphere meets the ground (from mid-flight on), so the new foot asks exactly
+    # the height the hips are at
+    landed = False
     for s in range(step_group.shape[0]):
-        if step_state[s] != STANCE:
+        if step_state[s] != FLIGHT or foot_rigid[step_foot_adr[s]] == 0:
             continue
-        duty = min(max(group_duty[step_group[s]] * step_duty_scale[s], 0.05), 0.97)
-        w = math.sin(math.pi * min(step_u[s] / duty, 1.0)) ** 2 + 1e-3
+        g = step_group[s]
+        p = step_progress[s]
+        fw, up, pitch = _path_at(path, g, p)
+        clear = COMPASS_CLEAR * group_lift[g] * step_lift_scale[s] * up
+        contact = True
         for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
-            if foot_rigid[f] == 0:
-                continue
-            jx, jy, jz = _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw)
+            L = foot_chain[f]
+            rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch * step_lift_scale[s])
+            ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
+            # foot joint and hip in character space
+            dx = foot_world[f, 0] - place_pos[0]
+            dy = foot_world[f, 1] - place_pos[1]
+            jx = cy * dx + sy * dy + ox
+            jy = -sy * dx + cy * dy + oy
             hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
-            need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
-            dzsum += w * (jz + need - hz)
-            wsum += w
-            dzmax = min(dzmax, jz + need - hz + 0.012 * foot_chain[f])   # never stretch a leg past 1.2%
-    if wsum > 0.0:
-        root_pos[2] += min(dzsum / wsum, dzmax)
-    # compass legs in flight swing on the sphere around the hip, never below the ground
-    for s in range(step_group.shape[0]):
-        if step_state[s] != FLIGHT:
-            continue
-        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
-            if foot_rigid[f] == 0:
-                continue
-            jx, jy, jz = _foot_joint(foot_world, foot_jointrel, foot_yaw, f, place_pos, cy, sy, yaw)
-            hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
-            need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
-            z = place_pos[2] + hz - need - (jz - (foot_world[f, 2] - place_pos[2]))
-            foot_world[f, 2] = max(z, heights[nfoot + f] + foot_offset[f])
+            ground = heights[nfoot + f] - place_pos[2] + foot_offset[f] + oz     # joint height, foot on the ground
+            ax, ay = jx - hx, jy - hy
+            need = math.sqrt(max(L * L - ax * ax - ay * ay, 0.0))
+            jz = hz - need
+            # never below the ground (the IK then misses the swing foot a little: a rigid leg
+            # cannot shorten to clear a bump)
+            foot_world[f, 2] = place_pos[2] + max(jz, ground + clear) - oz
+            if p < 0.5 or jz - ground > COMPASS_TOL * L:
+                contact = False
+        if contact:
+            for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+                foot_world[f, 2] = heights[nfoot + f] + foot_offset[f]
+            step_state[s] = STANCE
+            landed = True
+    if landed:
+        # a foot that met the ground a little below its sphere (a bump) asks the hips up:
+        # settle them with the new foot before the goals are written
+        root_pos[2] -= dz_top
+        _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_progress, step_parked, step_lift_u,
+                      step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain,
+                      foot_tilt, foot_lift, foot_lift_yaw, place_pos, cy, sy, yaw, root_pos, root_rot, bob_state)
     # goals in character space through this frame's placement
     for s in range(step_group.shape[0]):
         if step_state[s] == OWNED:
@@ -358,9 +491,9 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             b = foot_body[f]
             dx = foot_world[f, 0] - place_pos[0]
             dy = foot_world[f, 1] - place_pos[1]
-            goal_pos[b, 0] = cy * dx + sy * dy
-            goal_pos[b, 1] = -sy * dx + cy * dy
-            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2]
+            goal_pos[b, 0] = cy * dx + sy * dy - foot_bias[f, 0]
+            goal_pos[b, 1] = -sy * dx + cy * dy - foot_bias[f, 1]
+            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2] - foot_bias[f, 2]
             goal_pw[b] = 1.0
             # rotation: yaw relative to the heading, the slope tilt, the flight pitch (toe up
             # about the character's left axis), then the rest rotation

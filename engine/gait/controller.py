@@ -37,6 +37,9 @@ HEIGHT_TAU = 0.12
 TILT_TAU = 0.25
 #: Time constant (s) of the filter on the hip bob and sway.
 BOB_TAU = 0.06
+#: Largest constant miss of a foot at the rest stance (share of its leg length) the
+#: calibration accepts and compensates (``GaitController.foot_bias``).
+BIAS_SHARE = 0.03
 #: Below these the character counts as standing still (share of leg length per second, rad/s).
 IDLE_SPEED = 1e-3
 IDLE_TURN = 1e-3
@@ -83,6 +86,7 @@ class GaitController:
         self._layers: list[list[tuple[GaitStyle, float]]] = [[(base, 1.0)] for _ in range(G)]
         # per-frame arrays (kernel inputs), preallocated
         self.group_phase = np.zeros(G)
+        self._group_support = np.zeros(G, np.int32)
         self.group_rate = np.zeros(G)
         self.group_duty = np.full(G, 0.6)
         self.group_sweep = np.zeros(G)
@@ -113,7 +117,7 @@ class GaitController:
         self._foot_tilt = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
-        self._bob = np.zeros(2)
+        self._bob = np.zeros(4)
         self._row = np.zeros(8)
         self._tilt = np.zeros(2)             # filtered slope (dz/dx, dz/dy) in the character frame
         self._crouch = 0.0
@@ -130,6 +134,9 @@ class GaitController:
         #: Hip-to-foot stretch (over chain length) the IK was verified to meet, per group:
         #: a planted foot stretched further takes a rescue step.
         self.group_stretch = np.full(G, 10.0)
+        #: Constant IK miss of each foot at the rest stance (F, 3), character space, m: taken
+        #: off the foot goals every frame (see ``_calibrate``).
+        self.foot_bias = np.zeros((F, 3))
         self._prev_root_pos = np.zeros(3)
         self._prev_root_rot = np.array([1.0, 0.0, 0.0, 0.0])
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
@@ -138,15 +145,23 @@ class GaitController:
         if r.nstep:
             self._calibrate()
 
-    def _calibrate(self, tol: float = 2e-4, tries: int = 12) -> None:
+    def _calibrate(self, tol: float = 3e-4, tries: int = 12) -> None:
         """Measure with the IK itself how far each group's feet may sweep from their rest
         spots (every foot of the group displaced together along +-x and +-y, as the body
-        moves over planted feet) while the solver still meets them within ``tol`` m, at a
-        few crouch depths of the hips; then pick the least crouch that gives every group
-        the most sweep relative to its leg length. The geometric reach of ``rig`` assumes
-        each leg bends freely; branching legs (whose feet keep their relative positions),
-        single-segment legs and spines reach less, and crouching helps some legs while it
-        jams others, so the solver decides."""
+        moves over planted feet) at a few crouch depths of the hips, then pick the least
+        crouch that gives every group the most sweep relative to its leg length. The
+        geometric reach of ``rig`` assumes each leg bends freely; branching legs (whose feet
+        keep their relative positions), single-segment legs and spines reach less, and
+        crouching helps some legs while it jams others, so the solver decides.
+
+        The criterion is what the eye (and the metrics) see: a planted foot must not
+        *move*. The IK may miss a foot by a constant offset (a branching leg whose feet
+        cannot all sit exactly at their rest spots misses them by a millimetre or two at
+        rest); that offset is measured at the rest stance (``foot_bias``, character space)
+        and taken off the foot goals every frame, so the output lands where the gait wants
+        it. What must stay small is how much the miss *changes* while the foot sweeps
+        under the body, the other feet step and the hips bob: at most ``tol`` (m) from
+        the rest stance's miss, so any two frames of one stance differ by at most 2 tol."""
         from engine.ik import IKGoals, plan_for, solve_ik
 
         c, r = self.creature, self.rig
@@ -157,8 +172,11 @@ class GaitController:
         out_r = np.zeros((c.nbody, 4))
         out_r[:, 0] = 1.0
         fb = r.foot_body
+        foot_len = r.group_length[r.step_group[r.foot_stepper]]
 
-        def error(root_drop: float, feet, dx: float, dy: float, alternate: bool = False, lift: float = 0.0) -> float:
+        def miss_of(root_drop: float, bob: float, feet, dx: float, dy: float, alternate: bool = False,
+                    lift: float = 0.0):
+            """(miss (F, 3) = IK output - goal, counted (F,) bool) for one test stance."""
             goals.clear()
             # lifted compass feet swing on their sphere in the gait: they neither hold the
             # hips nor count as misses here
@@ -177,7 +195,7 @@ class GaitController:
                         p[2] += lift
                 goals.set(int(fb[f]), p, r.foot_rest_rot[f], 1.0, 1.0)
             root = c.body_rest_pos[0].copy()
-            root[2] -= root_drop - bob_margin         # the hips bob up while feet are planted
+            root[2] -= root_drop - bob                # the hips bob up while feet are planted
             rigid = [f for f in range(r.nfoot) if r.foot_rigid[f] and f not in skip]
             if rigid:
                 # compass legs: the hips sit at leg's length above the planted feet
@@ -189,35 +207,56 @@ class GaitController:
                     dz.append(j[2] + need - h[2])
                 root[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
             solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
-            miss = np.linalg.norm(out_p[fb] - goals.goal_pos[fb], axis=1)
-            miss[skip] = 0.0
+            miss = out_p[fb] - goals.goal_pos[fb]
+            counted = np.ones(r.nfoot, bool)
+            counted[skip] = False
             # how stretched the bending legs were (hip joint to foot joint over chain)
             for f in feet:
                 if not r.foot_rigid[f] and r.foot_chain[f] > 0:
                     h = root + _rotate(c.body_rest_rot[0], r.foot_hip[f])
                     j = goals.goal_pos[fb[f]] + r.foot_jointrel[f]
                     stretch_seen[0] = max(stretch_seen[0], float(np.linalg.norm(j - h)) / r.foot_chain[f])
-            return float(np.max(miss))
+            return miss, counted
+
+        def deviation(miss, counted, base) -> float:
+            d = np.linalg.norm(miss - base, axis=1)
+            return float(np.max(d[counted])) if np.any(counted) else 0.0
 
         # the largest hip bob the layered styles ask for (leg lengths of the longest group)
         bob_margin = max(float(np.max(st.table[:, 4])) for layers in self._layers for st, _ in layers) * float(
             np.max(r.group_length))
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
         stretch_seen = [0.0]
-        verified = np.zeros((r.ngroup, self._cal_crouch.shape[0]))
+        nk = self._cal_crouch.shape[0]
+        verified = np.zeros((r.ngroup, nk))
+        base_at = np.zeros((nk, r.nfoot, 3))
+        usable = np.zeros(nk, bool)
         for k, drop in enumerate(self._cal_crouch):
-            if error(drop, (), 0.0, 0.0) > tol:
-                continue                                   # the rest stance itself is out of reach
+            base, _ = miss_of(drop, bob_margin, (), 0.0, 0.0)
+            low, _ = miss_of(drop, 0.0, (), 0.0, 0.0)
+            base_at[k] = base
+            # the rest stance must be met up to a small constant offset, the same with the
+            # hips bobbed up or not
+            if (np.any(np.linalg.norm(base, axis=1) > BIAS_SHARE * foot_len)
+                    or deviation(low, np.ones(r.nfoot, bool), base) > tol):
+                continue
+            usable[k] = True
             for g in range(r.ngroup):
                 d = 0.5 * r.group_length[g]
+                lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
                 for _ in range(tries):
                     e = 1.25 * d                           # a margin for bob, lean, tilt and turning
                     stretch_seen[0] = 0.0
-                    lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
                     # same way, alternating with every other stepper lifted, alternating all planted
-                    worst = max(error(drop, groups_feet[g], dx, dy, alt, h)
-                                for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e))
-                                for alt, h in ((False, 0.0), (True, lift), (True, 0.0)))
+                    worst = 0.0
+                    for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e)):
+                        for alt, h in ((False, 0.0), (True, lift), (True, 0.0)):
+                            worst = max(worst, deviation(*miss_of(drop, bob_margin, groups_feet[g], dx, dy, alt, h),
+                                                         base))
+                            if worst > tol:
+                                break
+                        if worst > tol:
+                            break
                     if worst <= tol:
                         verified[g, k] = stretch_seen[0]
                         break
@@ -227,14 +266,17 @@ class GaitController:
                 self._cal_sweep[g, k] = d
         score = np.min(self._cal_sweep / r.group_length[:, None], axis=0)
         best = float(np.max(score))
-        k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else 0
+        k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else int(np.argmax(usable)) if usable.any() else 0
         self.min_crouch = float(self._cal_crouch[k])
+        self.foot_bias[:] = base_at[k] if usable[k] else 0.0
         for g in range(r.ngroup):
             if verified[g, k] > 0:
                 self.group_stretch[g] = verified[g, k]
-        # ... and the deepest crouch (a sneak, a heavy gait) that keeps every group able to step
+        # ... and the deepest crouch (a sneak, a heavy gait) that keeps every group able to
+        # step with the same constant offset of the feet (the crouch changes under planted feet)
         top = k
-        while top + 1 < len(score) and score[top + 1] >= 0.5 * best and best > 0:
+        while (top + 1 < len(score) and best > 0 and score[top + 1] >= 0.5 * best
+               and np.max(np.linalg.norm(base_at[top + 1] - base_at[k], axis=1)) <= tol):
             top += 1
         self.max_crouch = float(self._cal_crouch[top])
         # no shallower crouch than the chosen one is used, so the table starts there
@@ -409,6 +451,7 @@ class GaitController:
         self.step_done[:] = 0
         self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
         self._tilt[:] = 0.0
+        self._bob[3] = 0.0                    # compass legs: no held hip height yet
         # start crouched as the style wants at rest (straight legs must bend to step)
         self._crouch = min(max((max(self._params(g, 0.0)[7] * r.group_length[g], self.min_crouch)
                                 for g in range(r.ngroup)), default=0.0), self.max_crouch)
@@ -533,7 +576,7 @@ class GaitController:
                         self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                         self.foot_target_yaw, goal_pw, q, float(place_pos[2]), self._prev_root_pos,
                         self._prev_root_rot, r.foot_hip, r.foot_jointrel, r.foot_chain, r.foot_rigid,
-                        self.group_stretch)
+                        self.group_stretch, self._group_support)
         # ground under the centre and four points around it (slope at the body's scale)
         e = max(0.5 * float(max(self.creature.size[0], self.creature.size[1])), 0.05)
         cy, sy = math.cos(self._yaw), math.sin(self._yaw)
@@ -600,7 +643,8 @@ class GaitController:
                     r.foot_rigid, self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
                     self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
                     1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
-                    goal_pos, goal_rot, goal_pw, goal_rw)
+                    goal_pos, goal_rot, goal_pw, goal_rw, self.foot_bias, self.step_lift_u, self.step_parked,
+                    self.step_done)
         self._last_place[:] = place_pos
         self._prev_root_pos[:] = root_pos
         self._prev_root_rot[:] = root_rot
