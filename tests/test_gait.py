@@ -176,11 +176,7 @@ def _short(t, L):
     return -0.5 * L, 0.0, -0.8        # reverse and turn
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param("mini", marks=pytest.mark.xfail(
-        reason="single-segment (knee-less) legs: in double support the planted feet ask for different hip "
-               "heights and the IK misses by up to ~2 cm (see the gait report)", strict=False)),
-    "dog", "hexapod", "tripod", "forkstrider"])
+@pytest.mark.parametrize("name", ["mini", "minimal", "dog", "hexapod", "tripod", "forkstrider"])
 def test_planted_feet_do_not_slide(name, mini):
     c = mini if name == "mini" else engine.load_creature(f"creatures/{name}.yaml")
     for terrain in (False, True):

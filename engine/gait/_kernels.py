@@ -26,8 +26,10 @@ STANCE, FLIGHT, LANDING, OWNED = 0, 1, 2, 3
 #: Compass legs: how far (share of leg length) a planted rigid leg may hang before it
 #: lifts off, and how close a swinging one must come to the ground to touch down.
 COMPASS_TOL = 5e-4
-#: Compass legs: ground clearance of the swing foot, share of the style's foot lift.
+#: Compass legs: ground clearance of the swing foot, share of the style's foot lift, and
+#: the largest pelvis roll (rad) a hip hike may use to get it.
 COMPASS_CLEAR = 0.1
+COMPASS_ROLL = 0.35
 
 
 @njit(cache=True, inline="always")
@@ -296,6 +298,22 @@ def _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_
     return jz + need - hz
 
 
+@njit(cache=True, inline="always")
+def _compass_gap(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, foot_offset, ground_z, f,
+                 place_pos, cy, sy, yaw, pitch, root_pos, root_rot):
+    """How far (m) the lowest point of a swinging rigid leg's sphere (at the foot's present
+    horizontal spot) is above the ground ``ground_z`` (world), as the foot's contact point."""
+    rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch)
+    ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
+    dx = foot_world[f, 0] - place_pos[0]
+    dy = foot_world[f, 1] - place_pos[1]
+    jx = cy * dx + sy * dy + ox
+    jy = -sy * dx + cy * dy + oy
+    hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+    need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+    return (hz - need) - (ground_z - place_pos[2] + foot_offset[f] + oz)
+
+
 @njit(cache=True)
 def _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_progress, step_parked, step_lift_u,
                   step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt,
@@ -432,6 +450,48 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
                            step_lift_u, step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw, foot_hip,
                            foot_chain, foot_tilt, foot_lift, foot_lift_yaw, place_pos, cy, sy, yaw, root_pos, root_rot,
                            bob_state)
+    # a swinging compass leg whose sphere dips below the ground (plus a small clearance)
+    # gets it from a hip hike: the pelvis rolls about the forward axis so the swing side
+    # rises while the planted leg keeps the hips exact (a stiff-legged waddle)
+    roll = 0.0
+    for s in range(step_group.shape[0]):
+        if step_state[s] != FLIGHT or foot_rigid[step_foot_adr[s]] == 0:
+            continue
+        g = step_group[s]
+        fw, up, pitch = _path_at(path, g, step_progress[s])
+        clear = COMPASS_CLEAR * group_lift[g] * step_lift_scale[s] * up
+        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+            deficit = -_compass_gap(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt,
+                                    foot_offset, heights[nfoot + f], f, place_pos, cy, sy, yaw,
+                                    pitch * step_lift_scale[s], root_pos, root_rot) + clear
+            if deficit <= 0.0:
+                continue
+            hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+            ysum = 0.0
+            n = 0
+            for k in range(step_group.shape[0]):
+                if step_state[k] == STANCE and foot_rigid[step_foot_adr[k]] == 1:
+                    for e in range(step_foot_adr[k], step_foot_adr[k] + step_foot_num[k]):
+                        ysum += _hip(root_pos, root_rot, foot_hip, e)[1]
+                        n += 1
+            if n == 0:
+                continue
+            lever = hy - ysum / n
+            if abs(lever) < 0.02 * foot_chain[f]:
+                continue
+            want = min(max(deficit / lever, -COMPASS_ROLL), COMPASS_ROLL)
+            if abs(want) > abs(roll):
+                roll = want
+    if roll != 0.0:
+        root_pos[2] -= dz_top
+        q = _qmul(math.cos(0.5 * roll), math.sin(0.5 * roll), 0.0, 0.0, root_rot[0], root_rot[1], root_rot[2],
+                  root_rot[3])
+        for j in range(4):
+            root_rot[j] = q[j]
+        dz_top = _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_progress, step_parked,
+                               step_lift_u, step_u, step_done, foot_rigid, foot_world, foot_jointrel, foot_yaw,
+                               foot_hip, foot_chain, foot_tilt, foot_lift, foot_lift_yaw, place_pos, cy, sy, yaw,
+                               root_pos, root_rot, bob_state)
     # compass legs in flight swing on the sphere of their leg around the hip and touch down
     # where the sphere meets the ground (from mid-flight on), so the new foot asks exactly
     # the height the hips are at
