@@ -165,6 +165,10 @@ class GaitController:
         from engine.ik import IKGoals, plan_for, solve_ik
 
         c, r = self.creature, self.rig
+        if r.mode == "crawl":
+            # a crawler's body lies on the ground: it never crouches (see ``step``)
+            self._cal_crouch = np.zeros(1)
+            self._cal_sweep = np.zeros((self._cal_sweep.shape[0], 1))
         plan = plan_for(c, [int(b) for b in self.goal_bodies])
         scratch = plan.make_scratch()
         goals = IKGoals(c.nbody)
@@ -224,7 +228,7 @@ class GaitController:
 
         # the largest hip bob the layered styles ask for (leg lengths of the longest group)
         bob_margin = max(float(np.max(st.table[:, 4])) for layers in self._layers for st, _ in layers) * float(
-            np.max(r.group_length))
+            np.max(r.group_length)) if r.mode == "walk" else 0.0
         groups_feet = [[f for f in range(r.nfoot) if r.step_group[r.foot_stepper[f]] == g] for g in range(r.ngroup)]
         stretch_seen = [0.0]
         nk = self._cal_crouch.shape[0]

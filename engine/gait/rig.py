@@ -288,8 +288,9 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
 
 
 def _crawl_rig(c: Creature) -> GaitRig:
-    """Pseudo-feet: three or four spine bodies that touch the ground at rest, spread as
-    evenly along the chain as they allow, never the root (the IK drives it forward-kinematically). More pseudo-feet
+    """Pseudo-feet: up to three or four spine bodies that touch the ground at rest, spread as
+    evenly along the chain as they allow, never the root (the IK drives it forward-kinematically),
+    at least two bodies apart and, where possible, two away from the root. More pseudo-feet
     over-constrain the spine: the IK's spine phase places particles only at branch points
     (section 4.3.2), and goals on many interior spine bodies cannot all be met."""
     spine = [int(b) for b in c.spine_chain]
@@ -299,11 +300,21 @@ def _crawl_rig(c: Creature) -> GaitRig:
     if not touching:
         return _empty_rig(c)
     k = 4 if len(spine) >= 8 else 3
-    picks = []
+    # pseudo-feet at least two bodies apart along the chain: neighbours share a joint, so
+    # the spine between them cannot stretch or bend to let one stay planted while the
+    # other moves
+    # ... and two bodies away from the root, whose position the gait sets (the IK does not
+    # move it), when the creature has such bodies on the ground
+    if 0 in spine:
+        r0 = spine.index(0)
+        away = [j for j in touching if abs(j - r0) >= 2]
+        touching = away or touching
+    chosen: list[int] = []
     for target in np.linspace(0, len(spine) - 1, k):
-        i = min(touching, key=lambda j: abs(j - target))
-        picks.append(spine[i])
-    picks = [b for b in dict.fromkeys(picks) if b != 0]
+        free = [j for j in touching if all(abs(j - i) >= 2 for i in chosen)]
+        if free:
+            chosen.append(min(free, key=lambda j: abs(j - target)))
+    picks = [spine[i] for i in sorted(set(chosen))]
     if not picks:
         return _empty_rig(c)
     foot_body = np.array(picks, np.int32)
