@@ -82,6 +82,15 @@ def _hip(root_pos, root_rot, foot_hip, f):
             root_pos[2] + vz + w * tz + (x * ty - y * tx))
 
 
+@njit(cache=True, inline="always")
+def _ellipse(ex, ey, c, s, group_sweep, g):
+    """A world offset (ex, ey) of a foot from its rest spot, seen in the heading frame
+    (cos, sin of the heading) and measured on the ellipse of group g's half-sweeps."""
+    fx = c * ex + s * ey
+    fy = -s * ex + c * ey
+    return math.hypot(fx / max(group_sweep[g, 0], 1e-12), fy / max(group_sweep[g, 1], 1e-12))
+
+
 @njit(cache=True)
 def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_sweep, group_park, path,
               step_group, step_trigger, step_duty_scale, step_foot_adr, step_foot_num, step_state,
@@ -94,8 +103,9 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
     place (3,)     new placement x, y, heading yaw (world)
     vel (3,)       world velocity vx, vy (m/s) and turn rate (rad/s) of the placement
     idle           the character is asked to stand still
-    group_* (G,)   cycle rate (cycles/s), phase (in/out), duty factor, allowed half-sweep (m),
-                   parking tolerance (m); path (G, NS, 3) the normalized flight path
+    group_* (G,)   cycle rate (cycles/s), phase (in/out), duty factor, allowed half-sweeps
+                   (G, 2: forward/back and sideways in the character frame, m), parking
+                   tolerance (m); path (G, NS, 3) the normalized flight path
     step_* (S,)    group, trigger, duty scale, foot range, state/progress/previous cycle
                    position/parked/cycle position at lift-off/lifted this cycle (in/out); a flight always ends at
                    the end of the stepper's cycle, so a rescue step does not drift out of phase
@@ -149,12 +159,15 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 for j in range(3):
                     foot_lift[f, j] = foot_world[f, j]
                 foot_lift_yaw[f] = foot_yaw[f]
-        # how far the stepper's feet are from their rest spots under this placement
+        # how far the stepper's feet are from their rest spots under this placement (m), and
+        # the same on the ellipse of the allowed half-sweeps (1 = at the edge)
         disp = 0.0
+        reach = 0.0
         for f in range(a0, a1):
             nx = px + cy * foot_neutral[f, 0] - sy * foot_neutral[f, 1]
             ny = py + sy * foot_neutral[f, 0] + cy * foot_neutral[f, 1]
             disp = max(disp, math.hypot(foot_world[f, 0] - nx, foot_world[f, 1] - ny))
+            reach = max(reach, _ellipse(foot_world[f, 0] - nx, foot_world[f, 1] - ny, cy, sy, group_sweep, g))
         if step_state[s] == STANCE:
             # lift-off once per cycle, once the cycle passes the duty factor (the duty factor
             # moves with speed, so this is a window, not a crossing)
@@ -167,7 +180,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 else:
                     lift = True
             if not lift and not (idle and step_parked[s] == 1):
-                if disp > group_sweep[g]:
+                if reach > 1.0:
                     lift = True                  # rescue step: the planted foot would overreach
                 else:
                     for f in range(a0, a1):
@@ -186,7 +199,7 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 for k in range(step_group.shape[0]):
                     if step_group[k] == g and foot_rigid[step_foot_adr[k]] == 1 and step_state[k] == FLIGHT:
                         airborne = True
-                if group_support[g] <= 1 or (airborne and disp <= group_sweep[g]):
+                if group_support[g] <= 1 or (airborne and reach <= 1.0):
                     lift = False
                 else:
                     group_support[g] -= 1
@@ -232,9 +245,9 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 ty = qy + sq * foot_neutral[f, 0] + cq * foot_neutral[f, 1]
                 nx = lx + cl * foot_neutral[f, 0] - sl * foot_neutral[f, 1]
                 ny = ly + sl * foot_neutral[f, 0] + cl * foot_neutral[f, 1]
-                d = math.hypot(tx - nx, ty - ny)
-                if d > 0.85 * group_sweep[g]:
-                    k = min(k, 0.85 * group_sweep[g] / d)
+                d = _ellipse(tx - nx, ty - ny, cl, sl, group_sweep, g)
+                if d > 0.85:
+                    k = min(k, 0.85 / d)
             for f in range(a0, a1):
                 nx = lx + cl * foot_neutral[f, 0] - sl * foot_neutral[f, 1]
                 ny = ly + sl * foot_neutral[f, 0] + cl * foot_neutral[f, 1]

@@ -89,7 +89,7 @@ class GaitController:
         self._group_support = np.zeros(G, np.int32)
         self.group_rate = np.zeros(G)
         self.group_duty = np.full(G, 0.6)
-        self.group_sweep = np.zeros(G)
+        self.group_sweep = np.zeros((G, 2))
         self.group_park = np.zeros(G)
         self.group_lift = np.zeros(G)
         self.group_bob = np.zeros(G)
@@ -128,7 +128,7 @@ class GaitController:
         #: the crouch the creature needs at least (m); see ``_calibrate``.
         self._cal_crouch = np.array([0.0, 0.04, 0.08, 0.12, 0.17, 0.23, 0.3]) * (
             float(np.max(r.group_length)) if r.ngroup else 0.0)
-        self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0]))
+        self._cal_sweep = np.zeros((G, self._cal_crouch.shape[0], 2))
         self.min_crouch = 0.0
         self.max_crouch = math.inf
         #: Hip-to-foot stretch (over chain length) the IK was verified to meet, per group:
@@ -137,6 +137,9 @@ class GaitController:
         #: Constant IK miss of each foot at the rest stance (F, 3), character space, m: taken
         #: off the foot goals every frame (see ``_calibrate``).
         self.foot_bias = np.zeros((F, 3))
+        #: 0 when the calibration found the feet's IK miss changing with the hip bob: the
+        #: styles' bob is then left out
+        self.bob_scale = 1.0
         self._prev_root_pos = np.zeros(3)
         self._prev_root_rot = np.array([1.0, 0.0, 0.0, 0.0])
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
@@ -168,7 +171,7 @@ class GaitController:
         if r.mode == "crawl":
             # a crawler's body lies on the ground: it never crouches (see ``step``)
             self._cal_crouch = np.zeros(1)
-            self._cal_sweep = np.zeros((self._cal_sweep.shape[0], 1))
+            self._cal_sweep = np.zeros((self._cal_sweep.shape[0], 1, 2))
         plan = plan_for(c, [int(b) for b in self.goal_bodies])
         scratch = plan.make_scratch()
         goals = IKGoals(c.nbody)
@@ -179,11 +182,13 @@ class GaitController:
         foot_len = r.group_length[r.step_group[r.foot_stepper]]
 
         def miss_of(root_drop: float, bob: float, feet, dx: float, dy: float, alternate: bool = False,
-                    lift: float = 0.0):
+                    lift: float = 0.0, mid: bool = False):
             """(miss (F, 3) = IK output - goal, counted (F,) bool) for one test stance."""
             goals.clear()
             # lifted compass feet swing on their sphere in the gait: they neither hold the
-            # hips nor count as misses here
+            # hips nor count as misses here. Other lifted feet count: a swing foot the IK
+            # cannot meet pulls on the planted ones (measured: excluding them let the
+            # forkstrider's planted feet slide 7 mm)
             skip = [f for f in range(r.nfoot) if alternate and lift > 0 and f in feet and r.foot_rigid[f]
                     and r.step_rank[r.foot_stepper[f]] % 2 == 1]
             for f in range(r.nfoot):
@@ -192,7 +197,7 @@ class GaitController:
                     # alternate: every other stepper (by rank) the other way and lifted, as
                     # stance and flight feet are while walking
                     odd = alternate and r.step_rank[r.foot_stepper[f]] % 2 == 1
-                    sign = -1.0 if odd else 1.0
+                    sign = (0.0 if mid else -1.0) if odd else 1.0      # mid: the lifted feet mid-flight
                     p[0] += sign * dx
                     p[1] += sign * dy
                     if odd:
@@ -235,44 +240,57 @@ class GaitController:
         verified = np.zeros((r.ngroup, nk))
         base_at = np.zeros((nk, r.nfoot, 3))
         usable = np.zeros(nk, bool)
+        level_bob = np.zeros(nk)
         for k, drop in enumerate(self._cal_crouch):
             base, _ = miss_of(drop, bob_margin, (), 0.0, 0.0)
             low, _ = miss_of(drop, 0.0, (), 0.0, 0.0)
-            base_at[k] = base
             # the rest stance must be met up to a small constant offset, the same with the
-            # hips bobbed up or not
-            if (np.any(np.linalg.norm(base, axis=1) > BIAS_SHARE * foot_len)
-                    or deviation(low, np.ones(r.nfoot, bool), base) > tol):
+            # hips bobbed up or not; legs whose miss changes with the bob walk without it
+            bob = bob_margin
+            if deviation(low, np.ones(r.nfoot, bool), base) > tol:
+                base, bob = low, 0.0
+            base_at[k] = base
+            level_bob[k] = bob
+            if np.any(np.linalg.norm(base, axis=1) > BIAS_SHARE * foot_len):
                 continue
             usable[k] = True
             for g in range(r.ngroup):
-                d = 0.5 * r.group_length[g]
                 lift = float(np.max(self.path[g, :, 1])) * float(self._params(g, 0.0)[3]) * r.group_length[g]
-                for _ in range(tries):
-                    e = 1.25 * d                           # a margin for bob, lean, tilt and turning
-                    stretch_seen[0] = 0.0
-                    # same way, alternating with every other stepper lifted, alternating all planted
-                    worst = 0.0
-                    for dx, dy in ((e, 0.0), (-e, 0.0), (0.0, e), (0.0, -e)):
-                        for alt, h in ((False, 0.0), (True, lift), (True, 0.0)):
-                            worst = max(worst, deviation(*miss_of(drop, bob_margin, groups_feet[g], dx, dy, alt, h),
-                                                         base))
+                seen = 0.0
+                # forward/back (the stride) and sideways (turning, side steps) apart: some legs
+                # sweep far along the body and hardly across it
+                for axis in range(2):
+                    d = 0.5 * r.group_length[g]
+                    for _ in range(tries):
+                        e = 1.25 * d                       # a margin for bob, lean, tilt and turning
+                        stretch_seen[0] = 0.0
+                        # same way, alternating with every other stepper lifted, alternating all planted
+                        worst = 0.0
+                        for sign in (1.0, -1.0):
+                            dx, dy = (sign * e, 0.0) if axis == 0 else (0.0, sign * e)
+                            for alt, h, mid in ((False, 0.0, False), (True, lift, False), (True, 0.0, False)):
+                                worst = max(worst, deviation(*miss_of(drop, bob, groups_feet[g], dx, dy, alt,
+                                                                      h, mid), base))
+                                if worst > tol:
+                                    break
                             if worst > tol:
                                 break
-                        if worst > tol:
+                        if worst <= tol:
+                            seen = max(seen, stretch_seen[0])
                             break
-                    if worst <= tol:
-                        verified[g, k] = stretch_seen[0]
-                        break
-                    d *= 0.7
-                else:
-                    d = 0.0
-                self._cal_sweep[g, k] = d
-        score = np.min(self._cal_sweep / r.group_length[:, None], axis=0)
+                        d *= 0.7
+                    else:
+                        d = 0.0
+                    self._cal_sweep[g, k, axis] = d
+                if np.all(self._cal_sweep[g, k] > 0):
+                    verified[g, k] = seen
+        # the crouch is chosen by the geometric mean of the two half-sweeps
+        score = np.min(np.sqrt(self._cal_sweep[:, :, 0] * self._cal_sweep[:, :, 1]) / r.group_length[:, None], axis=0)
         best = float(np.max(score))
         k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else int(np.argmax(usable)) if usable.any() else 0
         self.min_crouch = float(self._cal_crouch[k])
         self.foot_bias[:] = base_at[k] if usable[k] else 0.0
+        self.bob_scale = 1.0 if level_bob[k] > 0 or bob_margin == 0.0 else 0.0
         for g in range(r.ngroup):
             if verified[g, k] > 0:
                 self.group_stretch[g] = verified[g, k]
@@ -286,16 +304,19 @@ class GaitController:
         # no shallower crouch than the chosen one is used, so the table starts there
         self._cal_sweep[:, :k] = self._cal_sweep[:, k:k + 1]
 
-    def _sweep(self, g: int, crouch: float) -> float:
-        """Calibrated half-sweep (m) of group g at hip crouch ``crouch`` (m)."""
+    def _sweep(self, g: int, crouch: float) -> tuple[float, float]:
+        """Calibrated half-sweeps (m) of group g at hip crouch ``crouch`` (m): forward/back
+        and sideways."""
         cc = self._cal_crouch
+        t = self._cal_sweep
         if crouch <= cc[0]:
-            return float(self._cal_sweep[g, 0])
+            return float(t[g, 0, 0]), float(t[g, 0, 1])
         for k in range(cc.shape[0] - 1):
             if crouch <= cc[k + 1]:
                 a = (crouch - cc[k]) / (cc[k + 1] - cc[k])
-                return float(self._cal_sweep[g, k] * (1 - a) + self._cal_sweep[g, k + 1] * a)
-        return float(self._cal_sweep[g, -1])
+                return (float(t[g, k, 0] * (1 - a) + t[g, k + 1, 0] * a),
+                        float(t[g, k, 1] * (1 - a) + t[g, k + 1, 1] * a))
+        return float(t[g, -1, 0]), float(t[g, -1, 1])
 
     # -- control -------------------------------------------------------------------------
 
@@ -481,23 +502,31 @@ class GaitController:
         L = float(np.max(r.group_length)) if r.ngroup else max(float(self.creature.size[2]), 0.1)
 
         # 1. speed limit (no overreach) and acceleration-limited root motion
-        limit = math.inf
+        limit = math.inf                   # forward (m/s)
+        limit_y = math.inf                 # sideways
         for g in range(r.ngroup):
             Lg = r.group_length[g]
             cap = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3)) * r.group_ratio[g]
             top = self._layers[g][0][0].table[-1, 0]
             p = self._params(g, top)
-            sweep = min(self._sweep(g, min(max(p[7] * Lg, self.min_crouch), self.max_crouch)),
-                        self._sweep(g, self._crouch))
-            stride_max = 1.6 * sweep / max(p[2], 0.05)
-            limit = min(limit, cap * min(p[1] * Lg, stride_max), top * Lg * 1.25)
+            sa = self._sweep(g, min(max(p[7] * Lg, self.min_crouch), self.max_crouch))
+            sb = self._sweep(g, self._crouch)
+            duty = max(p[2], 0.05)
+            limit = min(limit, cap * min(p[1] * Lg, 1.6 * min(sa[0], sb[0]) / duty), top * Lg * 1.25)
+            limit_y = min(limit_y, cap * min(p[1] * Lg, 1.6 * min(sa[1], sb[1]) / duty), top * Lg * 1.25)
         self.speed_limit = limit
         cmd = self._cmd_v
         cmd_speed = math.hypot(cmd[0], cmd[1])
         w_cmd = self._cmd_w
         radius = float(np.max(r.group_radius)) if r.ngroup else 0.0
-        if cmd_speed + abs(w_cmd) * radius > limit and cmd_speed + abs(w_cmd) * radius > 0:
-            k = limit / (cmd_speed + abs(w_cmd) * radius)
+        # the command as a share of what the legs allow (an ellipse of velocities; a turn
+        # moves feet either way, so it counts against the smaller limit)
+        demand = 0.0
+        if limit < math.inf:
+            lo = max(min(limit, limit_y), 1e-12)
+            demand = math.hypot(cmd[0] / max(limit, 1e-12), cmd[1] / max(limit_y, 1e-12)) + abs(w_cmd) * radius / lo
+        if demand > 1.0:
+            k = 1.0 / demand
             tx, ty, tw = cmd[0] * k, cmd[1] * k, w_cmd * k
         else:
             tx, ty, tw = cmd[0], cmd[1], w_cmd
@@ -545,10 +574,15 @@ class GaitController:
             Lg = r.group_length[g]
             v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
             p = self._params(g, v_eff / Lg)
-            sweep = self._sweep(g, self._crouch)
+            sx, sy = self._sweep(g, self._crouch)
             duty = p[2]
-            stride = min(p[1] * Lg, 1.6 * sweep / duty)
-            f_g = v_eff / max(stride, 1e-6)
+            # the sweep along the direction of travel (on the ellipse of the two half-sweeps),
+            # the smaller one for the turn
+            ux, uy = self.velocity[0] / max(speed, 1e-12), self.velocity[1] / max(speed, 1e-12)
+            s_dir = 1.0 / max(math.hypot(ux / max(sx, 1e-12), uy / max(sy, 1e-12)), 1e-12) if speed > 0 else sx
+            stride = min(p[1] * Lg, 1.6 * s_dir / duty)
+            stride_turn = min(p[1] * Lg, 1.6 * min(sx, sy) / duty)
+            f_g = speed / max(stride, 1e-6) + abs(self.turn_rate) * r.group_radius[g] / max(stride_turn, 1e-6)
             settle = 0.5 * self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
             if not idle:
                 f_g = max(f_g, 0.35 * settle)
@@ -556,11 +590,12 @@ class GaitController:
                 f_g = settle
             base = max(base, f_g / r.group_ratio[g])
             self.group_duty[g] = duty
-            self.group_sweep[g] = 0.97 * sweep + 0.0
+            self.group_sweep[g, 0] = 0.97 * sx
+            self.group_sweep[g, 1] = 0.97 * sy
             self.group_park[g] = 0.03 * Lg
             self.group_lift[g] = p[3] * Lg
             gain = min(v_eff / Lg, 1.0)
-            self.group_bob[g] = p[4] * Lg * gain
+            self.group_bob[g] = p[4] * Lg * gain * self.bob_scale
             self.group_sway[g] = p[5] * Lg * gain
         for g in range(r.ngroup):
             self.group_rate[g] = base * r.group_ratio[g]
