@@ -25,6 +25,8 @@ DEMO_GAITS = (
     ("tripod", "walk", "tripod: walk"),
     ("forkstrider", "walk", "forkstrider: branching legs"),
     ("snake", None, "snake: inch-worm crawl"),
+    ("inchworm", None, "inchworm: arched crawl"),
+    ("minimal", "walk", "minimal: compass gait (knee-less legs)"),
     ("mixedlegs", ("trot", "run"), "mixedlegs: long trot, short run"),
 )
 

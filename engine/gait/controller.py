@@ -140,6 +140,9 @@ class GaitController:
         #: 0 when the calibration found the feet's IK miss changing with the hip bob: the
         #: styles' bob is then left out
         self.bob_scale = 1.0
+        #: True while the calibrated sweeps leave the legs no step the IK meets: the
+        #: character stands (see ``step``)
+        self.immobile = False
         self._prev_root_pos = np.zeros(3)
         self._prev_root_rot = np.array([1.0, 0.0, 0.0, 0.0])
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
@@ -404,6 +407,12 @@ class GaitController:
                 # inch-worm: a wave from the front to the back along the body
                 n = len(steps)
                 trig = (0.55 * rank / max(n - 1, 1)) % 1.0
+            elif len(steps) > 2 and np.all(r.foot_rigid[r.step_foot_adr[steps]] == 1):
+                # knee-less legs: the hips ride at one leg length over the planted feet, so
+                # every planted foot must sit as far from its hip as the others; only two
+                # sets stepping in turn (alternate rows, the sides opposed) can do that
+                row2 = rank // 2 if np.all(side != 0) else rank
+                trig = 0.5 * ((row2 + (side < 0)) % 2)
             self.step_trigger[steps] = trig
             self.step_duty_scale[steps] = dsc
             self.step_lift_scale[steps] = lsc
@@ -475,7 +484,18 @@ class GaitController:
         self.step_parked[:] = 1
         self.step_done[:] = 0
         self.step_prev_u[:] = (self.group_phase[r.step_group] - self.step_trigger) % 1.0 if r.nstep else 0.0
-        self._tilt[:] = 0.0
+        # the torso starts aligned to the ground it stands on (a filter settling in from
+        # level would turn the hips under planted feet)
+        e = max(0.5 * float(max(self.creature.size[0], self.creature.size[1])), 0.05)
+        if self._normal is not None:
+            n = np.asarray(self._normal(place_pos[0], place_pos[1]), dtype=float).reshape(3)
+            nz = max(float(n[2]), 1e-3)
+            gx, gy = -float(n[0]) / nz, -float(n[1]) / nz
+            self._tilt[0], self._tilt[1] = c * gx + s * gy, -s * gx + c * gy
+        else:
+            h4 = [self._sample_scalar(place_pos[0] + a * e, place_pos[1] + b * e)
+                  for a, b in ((c, s), (-c, -s), (-s, c), (s, -c))]
+            self._tilt[0], self._tilt[1] = (h4[0] - h4[1]) / (2 * e), (h4[2] - h4[3]) / (2 * e)
         self._bob[3] = 0.0                    # compass legs: no held hip height yet
         # start crouched as the style wants at rest (straight legs must bend to step)
         self._crouch = min(max((max(self._params(g, 0.0)[7] * r.group_length[g], self.min_crouch)
@@ -555,6 +575,11 @@ class GaitController:
         speed = math.hypot(self.velocity[0], self.velocity[1])
         idle = (cmd_speed < IDLE_SPEED * L and abs(w_cmd) < IDLE_TURN
                 and speed < IDLE_SPEED * L and abs(self.turn_rate) < IDLE_TURN)
+        # legs the calibration found unable to step at all (no sweep the IK meets along one
+        # axis) stand: a step would move the planted feet
+        self.immobile = r.nstep > 0 and min(limit, limit_y) <= 0.0
+        if self.immobile:
+            idle = True
         if self._idle and not idle and all(self.step_parked[s] == 1 for s in range(r.nstep)):
             # setting off from a stand: start each group's cycle just before its front
             # stepper lifts, so the first step comes at once instead of after up to a cycle
