@@ -30,6 +30,9 @@ COMPASS_TOL = 5e-4
 #: the largest pelvis roll (rad) a hip hike may use to get it.
 COMPASS_CLEAR = 0.1
 COMPASS_ROLL = 0.35
+#: Compass legs: share of the way to its touchdown circle a foot hanging at the end of its
+#: flight is drawn in per frame.
+COMPASS_REACH_IN = 0.15
 
 
 @njit(cache=True, inline="always")
@@ -222,7 +225,15 @@ def gait_plan(dt, place, vel, idle, group_rate, group_phase, group_duty, group_s
                 step_progress[s] = 1.0
                 if foot_rigid[a0] == 0:
                     step_state[s] = LANDING      # compass feet land in gait_pose, on contact
-        if step_state[s] == FLIGHT or step_state[s] == LANDING:
+        if step_state[s] == FLIGHT and foot_rigid[a0] == 1 and step_progress[s] >= 1.0:
+            # a compass foot at the end of its flight that has not met the ground yet keeps
+            # its target (``gait_pose`` draws it in under the hip until it touches)
+            for f in range(a0, a1):
+                query[f, 0] = foot_target[f, 0]
+                query[f, 1] = foot_target[f, 1]
+                query[nfoot + f, 0] = foot_target[f, 0]
+                query[nfoot + f, 1] = foot_target[f, 1]
+        elif step_state[s] == FLIGHT or step_state[s] == LANDING:
             # touchdown target: the rest spot under the placement predicted for the middle
             # of the coming stance, so the stance sweeps evenly around the rest spot
             rate = group_rate[g] if group_rate[g] > 0.0 else 1.0
@@ -492,7 +503,8 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             lever = hy - ysum / n
             if abs(lever) < 0.02 * foot_chain[f]:
                 continue
-            want = min(max(deficit / lever, -COMPASS_ROLL), COMPASS_ROLL)
+            # (10% over: the hips are re-solved after the roll, a first-order estimate)
+            want = min(max(1.1 * deficit / lever, -COMPASS_ROLL), COMPASS_ROLL)
             if abs(want) > abs(roll):
                 roll = want
     if roll != 0.0:
@@ -529,6 +541,23 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
             ground = heights[nfoot + f] - place_pos[2] + foot_offset[f] + oz     # joint height, foot on the ground
             ax, ay = jx - hx, jy - hy
+            if p >= 1.0:
+                # flight over and the ground not met (the hips stand too high for the
+                # target): draw the foot in under the hip, at most COMPASS_REACH_IN of the
+                # way a frame, to where its sphere meets the ground
+                a = hz - ground
+                d = math.hypot(ax, ay)
+                d_touch = math.sqrt(L * L - a * a) if 0.0 < a < L else (0.0 if a >= L else d)
+                if d > d_touch and d > 0.0:
+                    k = max(d_touch / d, 1.0 - COMPASS_REACH_IN)
+                    mx = -(1.0 - k) * ax
+                    my = -(1.0 - k) * ay
+                    wx, wy = cy * mx - sy * my, sy * mx + cy * my
+                    foot_world[f, 0] += wx
+                    foot_world[f, 1] += wy
+                    foot_target[f, 0] += wx
+                    foot_target[f, 1] += wy
+                    ax, ay = k * ax, k * ay
             need = math.sqrt(max(L * L - ax * ax - ay * ay, 0.0))
             jz = hz - need
             # never below the ground (the IK then misses the swing foot a little: a rigid leg

@@ -40,6 +40,9 @@ BOB_TAU = 0.06
 #: Largest constant miss of a foot at the rest stance (share of its leg length) the
 #: calibration accepts and compensates (``GaitController.foot_bias``).
 BIAS_SHARE = 0.03
+#: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
+#: legs stand (``GaitController.immobile``).
+MIN_SWEEP_SHARE = 0.01
 #: Below these the character counts as standing still (share of leg length per second, rad/s).
 IDLE_SPEED = 1e-3
 IDLE_TURN = 1e-3
@@ -284,7 +287,8 @@ class GaitController:
                         d *= 0.7
                     else:
                         d = 0.0
-                    self._cal_sweep[g, k, axis] = d
+                    # a half-sweep under MIN_SWEEP_SHARE of the leg is no step: it only churns the IK
+                    self._cal_sweep[g, k, axis] = d if d >= MIN_SWEEP_SHARE * r.group_length[g] else 0.0
                 if np.all(self._cal_sweep[g, k] > 0):
                     verified[g, k] = seen
         # the crouch is chosen by the geometric mean of the two half-sweeps
