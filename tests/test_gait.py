@@ -189,6 +189,59 @@ def test_planted_feet_do_not_slide(name, mini):
         assert m["stretch_ratio"] <= 1.02, m
 
 
+def test_compass_hips_ride_at_leg_length_over_planted_feet(mini):
+    """Knee-less legs: every planted foot's joint sits exactly one leg length from its hip
+    (the highest asks, the others lift), checked on the gait's goals, not the IK."""
+    from engine.gait._kernels import COMPASS_TOL
+
+    ch = engine.Character(mini)
+    g = ch._ensure_gait()
+    rig = g.rig
+    assert np.all(rig.foot_rigid == 1)
+    s, r = ch._stack, ch._row
+    held = 0
+    for i in range(150):
+        ch.locomote((0.5, 0.0) if i < 100 else (0.2, 0.1), 0.4)
+        ch.tick(1 / 60)
+        root_p, root_q = s.root_pos[r], s.root_rot[r]
+        planted = 0
+        for f in range(rig.nfoot):
+            if g.step_state[rig.foot_stepper[f]] != 0:
+                continue
+            b = int(rig.foot_body[f])
+            hip = root_p + _qrot(root_q, rig.foot_hip[f])
+            # the goal is the planted spot less the IK's constant miss (foot_bias); the joint
+            # is the origin less its offset from the joint, turned by the goal rotation
+            joint = s.goal_pos[r, b] + g.foot_bias[f] - _qrot(s.goal_rot[r, b], mini.body_joint_offset[b])
+            dist = np.linalg.norm(hip - joint)
+            assert dist <= rig.foot_chain[f] * (1 + COMPASS_TOL) + 1e-9
+            assert dist >= rig.foot_chain[f] - 1e-9
+            planted += 1
+        held += planted > 0
+    assert held > 140          # a foot holds the hips nearly all the time
+
+
+def _qrot(q, v):
+    u = np.asarray(q[1:], float)
+    t = 2.0 * np.cross(u, v)
+    return v + q[0] * t + np.cross(u, t)
+
+
+def test_inchworm_pseudo_feet_and_crawl():
+    c = engine.load_creature("creatures/inchworm.yaml")
+    rig = analyze(c)
+    spine = [int(b) for b in c.spine_chain]
+    idx = sorted(spine.index(int(b)) for b in rig.foot_body)
+    # pseudo-feet at least two bodies apart and two away from the root (neighbours share a
+    # joint and cannot move apart)
+    assert rig.mode == "crawl" and len(idx) >= 2
+    assert all(b - a >= 2 for a, b in zip(idx, idx[1:]))
+    assert all(abs(i - spine.index(0)) >= 2 for i in idx)
+    m = run_scenario(c, seconds=3.0, terrain=True, commands=lambda t, L: (0.6 * L, 0.0, 0.1))
+    assert m["finite"] and m["stances"] >= 3
+    assert m["stance_slide_mm"] <= 1.0 and m["travel"] > 0.5, m
+
+
 def test_character_moves_along_command():
     ch = engine.Character(engine.load_creature("creatures/humanoid.yaml"))
     for _ in range(120):

@@ -40,6 +40,9 @@ BOB_TAU = 0.06
 #: Largest constant miss of a foot at the rest stance (share of its leg length) the
 #: calibration accepts and compensates (``GaitController.foot_bias``).
 BIAS_SHARE = 0.03
+#: The calibration picks the least crouch whose half-sweep is at least this share of the
+#: best it found at any crouch.
+CROUCH_SWEEP_SHARE = 0.7
 #: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
 #: legs stand (``GaitController.immobile``).
 MIN_SWEEP_SHARE = 0.01
@@ -188,7 +191,7 @@ class GaitController:
         foot_len = r.group_length[r.step_group[r.foot_stepper]]
 
         def miss_of(root_drop: float, bob: float, feet, dx: float, dy: float, alternate: bool = False,
-                    lift: float = 0.0, mid: bool = False):
+                    lift: float = 0.0):
             """(miss (F, 3) = IK output - goal, counted (F,) bool) for one test stance."""
             goals.clear()
             # lifted compass feet swing on their sphere in the gait: they neither hold the
@@ -203,7 +206,7 @@ class GaitController:
                     # alternate: every other stepper (by rank) the other way and lifted, as
                     # stance and flight feet are while walking
                     odd = alternate and r.step_rank[r.foot_stepper[f]] % 2 == 1
-                    sign = (0.0 if mid else -1.0) if odd else 1.0      # mid: the lifted feet mid-flight
+                    sign = -1.0 if odd else 1.0
                     p[0] += sign * dx
                     p[1] += sign * dy
                     if odd:
@@ -267,22 +270,26 @@ class GaitController:
                 # sweep far along the body and hardly across it
                 for axis in range(2):
                     d = 0.5 * r.group_length[g]
-                    for _ in range(tries):
+                    def passes(d: float) -> bool:
                         e = 1.25 * d                       # a margin for bob, lean, tilt and turning
                         stretch_seen[0] = 0.0
                         # same way, alternating with every other stepper lifted, alternating all planted
-                        worst = 0.0
                         for sign in (1.0, -1.0):
                             dx, dy = (sign * e, 0.0) if axis == 0 else (0.0, sign * e)
-                            for alt, h, mid in ((False, 0.0, False), (True, lift, False), (True, 0.0, False)):
-                                worst = max(worst, deviation(*miss_of(drop, bob, groups_feet[g], dx, dy, alt,
-                                                                      h, mid), base))
-                                if worst > tol:
-                                    break
-                            if worst > tol:
-                                break
-                        if worst <= tol:
+                            for alt, h in ((False, 0.0), (True, lift), (True, 0.0)):
+                                if deviation(*miss_of(drop, bob, groups_feet[g], dx, dy, alt, h), base) > tol:
+                                    return False
+                        return True
+
+                    top = 0.5 * r.group_length[g]
+                    d = top
+                    for i in range(tries):
+                        if passes(d):
                             seen = max(seen, stretch_seen[0])
+                            # one step back up, between this sweep and the one that failed
+                            if i > 0 and passes(1.2 * d):
+                                d *= 1.2
+                                seen = max(seen, stretch_seen[0])
                             break
                         d *= 0.7
                     else:
@@ -292,9 +299,13 @@ class GaitController:
                 if np.all(self._cal_sweep[g, k] > 0):
                     verified[g, k] = seen
         # the crouch is chosen by the geometric mean of the two half-sweeps
+        self.calibrated_sweep = self._cal_sweep.copy()     # (G, crouch levels, 2) before the choice below
         score = np.min(np.sqrt(self._cal_sweep[:, :, 0] * self._cal_sweep[:, :, 1]) / r.group_length[:, None], axis=0)
         best = float(np.max(score))
-        k = int(np.flatnonzero(score >= 0.9 * best)[0]) if best > 0 else int(np.argmax(usable)) if usable.any() else 0
+        # the least crouch that keeps most of the best sweep (a deeper crouch buys a longer
+        # stride but looks like a crouch walk; a shorter stride is made up by cadence)
+        k = (int(np.flatnonzero(score >= CROUCH_SWEEP_SHARE * best)[0]) if best > 0
+             else int(np.argmax(usable)) if usable.any() else 0)
         self.min_crouch = float(self._cal_crouch[k])
         self.foot_bias[:] = base_at[k] if usable[k] else 0.0
         self.bob_scale = 1.0 if level_bob[k] > 0 or bob_margin == 0.0 else 0.0
