@@ -6,10 +6,11 @@ crowd of a thousand run the same code, one call per stage.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from engine.anim._kernels import goals_kernel
-from engine.ik._kernels import solve_packed
+from engine.anim.evaluate import EvalScratch
+from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
 from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into
 
@@ -29,6 +30,36 @@ def goals_pairs(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot,
                 tables[k, n_ext + b, j] = char_pos[c, b, j]
         goals_kernel(cv, consts, pos_on, rot_on, tables[k], times[k], rest_pos, rest_rot, scratch,
                      sg_pos[c, s], sg_rot[c, s], sg_pw[c, s], sg_rw[c, s])
+
+
+@njit(cache=True, parallel=True)
+def goals_pairs_parallel(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot,
+                         scratches, sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos):
+    """``goals_pairs`` on all cores: the pairs split into ``scratches.work33.shape[0]``
+    contiguous chunks, each sampled in turn by one thread with its own scratch (every
+    field of ``scratches`` has a leading chunk axis). Pairs write disjoint rows."""
+    nchunk = scratches.work33.shape[0]
+    n = times.shape[0]
+    for t in prange(nchunk):
+        # Borrowed views (see engine.ik._kernels.borrow): threads share no counts.
+        cvb = borrow(cv)
+        cb = borrow(consts)
+        po = borrow(pos_on)
+        ro = borrow(rot_on)
+        rp = borrow(rest_pos)
+        rr = borrow(rest_rot)
+        sc = EvalScratch(borrow(scratches.ch_pos[t]), borrow(scratches.ch_rot[t]), borrow(scratches.ch_weight[t]),
+                         borrow(scratches.slot_pos[t]), borrow(scratches.slot_rot[t]),
+                         borrow(scratches.slot_weight[t]), borrow(scratches.work33[t]), borrow(scratches.work34[t]))
+        for k in range(t * n // nchunk, (t + 1) * n // nchunk):
+            c = pair_char[k]
+            s = pair_slot[k]
+            table = borrow(tables[k])
+            for b in range(char_pos.shape[1]):
+                for j in range(3):
+                    table[n_ext + b, j] = char_pos[c, b, j]
+            goals_kernel(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]), borrow(sg_rot[c, s]),
+                         borrow(sg_pw[c, s]), borrow(sg_rw[c, s]))
 
 
 @njit(cache=True)
@@ -123,13 +154,33 @@ def blend_layers(active, effective, layer, nlayer, sg_pos, sg_rot, sg_pw, sg_rw,
 def solve_indexed(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw,
                   out_pos, out_rot, scratch, bad):
     """IK for the characters ``idx`` of a stack that share one plan. ``bad[c]`` gets the
-    input check code (-1 solved); a bad character keeps last frame's pose."""
+    input check code (-1 solved); a bad character keeps last frame's pose. Returns how
+    many were bad."""
+    P = unpack(plan_i, plan_f, plan_f3, plan_f4)
     nbad = 0
     for k in range(idx.shape[0]):
-        c = idx[k]
-        bad[c] = solve_packed(plan_i, plan_f, plan_f3, plan_f4, root_pos[c], root_rot[c], goal_pos[c], goal_rot[c],
-                              goal_pw[c], goal_rw[c], out_pos[c], out_rot[c], scratch)
-        if bad[c] != -1:
+        nbad += solve_row(P, idx[k], root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot,
+                          scratch, bad)
+    return nbad
+
+
+@njit(cache=True, parallel=True)
+def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root_rot, goal_pos, goal_rot, goal_pw,
+                           goal_rw, out_pos, out_rot, scratches, bad):
+    """``solve_indexed`` on all cores: the rows ``idx`` split into ``scratches.shape[0]``
+    contiguous chunks, each solved in turn by one thread with its own scratch
+    ``scratches[chunk] (rows, 3)`` (solves share nothing else, and each starts from the
+    rest pose, so the poses are the serial ones, bit for bit, whatever the threads)."""
+    nchunk = scratches.shape[0]
+    n = idx.shape[0]
+    for t in prange(nchunk):
+        P = unpack(plan_i, plan_f, plan_f3, plan_f4)
+        sc = scratches[t]
+        for k in range(t * n // nchunk, (t + 1) * n // nchunk):
+            solve_row(P, idx[k], root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot, sc, bad)
+    nbad = 0
+    for k in range(n):
+        if bad[idx[k]] != -1:
             nbad += 1
     return nbad
 

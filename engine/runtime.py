@@ -31,13 +31,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from engine import _runtime_kernels as RK
 from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
-from engine.anim.evaluate import default_target, make_scratch
+from engine.anim.evaluate import default_target, make_scratch, make_scratches
 from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
@@ -607,22 +608,37 @@ class _Group:
                 buf.pair_slot[i] = slot
             external = [(i, clip, m) for i, (_, _, clip, m) in enumerate(pairs) if clip.n_ext]
             k = len(pairs)
+            # Many pairs are sampled on all cores, one scratch per chunk of pairs.
+            chunks = _parallel_chunks(k)
+            scratches = None
+            if chunks > 1:
+                if buf.scratches is None or buf.scratches.work33.shape[0] != chunks:
+                    buf.scratches = make_scratches(clip0.animation, clip0.bound, chunks)
+                scratches = buf.scratches
             # Views made once per change, not per frame.
-            out.append((clip0, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k], external))
+            out.append((clip0, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k], external,
+                        scratches))
         self._pair_list, self._pairs_version = out, version
         return out
 
     def _sample(self) -> None:
         s = self.stack
         c = self.creature
-        for clip0, pair_char, pair_slot, times, tables, external in self._pair_groups():
+        for clip0, pair_char, pair_slot, times, tables, external, scratches in self._pair_groups():
             RK.gather_times(s.player.time, pair_char, pair_slot, times)
             for i, clip, m in external:
                 _fill_external(m, clip, tables[i])
             bv = clip0.bound
-            RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
-                           pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
-                           s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, s.char_pos)
+            if scratches is None:
+                RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
+                               pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
+                               s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, s.char_pos)
+            else:
+                with numba.parallel_chunksize(1):   # chunks handed out as threads free up
+                    RK.goals_pairs_parallel(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
+                                            tables, times, pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot,
+                                            scratches, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext,
+                                            s.char_pos)
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
@@ -637,17 +653,31 @@ class _Group:
                 plans[id(m._plan)] = (m._plan, m._scratch_ik, [row])
             else:
                 entry[2].append(row)
-        self._plan_list = [(plan, scratch, np.array(rows, np.int64)) for plan, scratch, rows in plans.values()]
+        out = []
+        for plan, scratch, rows in plans.values():
+            idx = np.array(rows, np.int64)
+            # Big groups are solved on all cores, one scratch per chunk of rows.
+            chunks = _parallel_chunks(len(rows))
+            scratches = np.zeros((chunks,) + plan.scratch_shape) if chunks > 1 else None
+            out.append((plan, scratch, idx, scratches))
+        self._plan_list = out
         self._plans_version = version
         return self._plan_list
 
     def _solve(self, ik_on: bool) -> None:
         s = self.stack
-        for plan, scratch, idx in self._plan_groups():
+        for plan, scratch, idx, scratches in self._plan_groups():
             if ik_on:
                 b = plan.blobs
-                nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot,
-                                        s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch, s.ik_bad)
+                if scratches is None:
+                    nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos,
+                                            s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch,
+                                            s.ik_bad)
+                else:
+                    with numba.parallel_chunksize(1):   # chunks handed out as threads free up
+                        nbad = RK.solve_indexed_parallel(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot,
+                                                         s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos,
+                                                         s.char_rot, scratches, s.ik_bad)
                 if nbad:
                     row = int(idx[np.flatnonzero(s.ik_bad[idx] != -1)[0]])
                     _raise_ik(self.members[row], int(s.ik_bad[row]))
@@ -657,6 +687,21 @@ class _Group:
                                s.driven[row])
 
 
+#: Below this many rows (characters sharing an IK plan, or pairs playing one bound
+#: variant) a crowd runs a stage on one thread (starting the threads costs more than it
+#: saves; see ``benchmarks/tick.py``).
+PARALLEL_MIN_ROWS = 16
+
+
+def _parallel_chunks(nrow: int) -> int:
+    """How many chunks (each with its own scratch) ``nrow`` rows of a stage are cut into:
+    1 (serial) for small groups, else several per thread, handed out as threads free up
+    so a core busy with something else does not hold up the frame."""
+    if nrow < PARALLEL_MIN_ROWS or numba.get_num_threads() < 2:
+        return 1
+    return max(1, min(nrow, 8 * numba.get_num_threads()))
+
+
 class _PairBuffer:
     def __init__(self, capacity: int, nrow: int) -> None:
         self.capacity = capacity
@@ -664,6 +709,7 @@ class _PairBuffer:
         self.pair_slot = np.zeros(capacity, np.int64)
         self.times = np.zeros(capacity)
         self.tables = np.zeros((capacity, nrow, 3))
+        self.scratches = None   # EvalScratch stacked per chunk, when sampled in parallel
 
 
 __all__ = ["Character", "Crowd", "STAGES", "Stages", "MenagerieError"]

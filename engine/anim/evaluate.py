@@ -120,6 +120,13 @@ def make_scratch(animation: Animation, binding: SimpleBinding) -> EvalScratch:
                        np.zeros(k), np.zeros((3, 3)), np.zeros((3, 4)))
 
 
+def make_scratches(animation: Animation, binding: SimpleBinding, n: int) -> EvalScratch:
+    """``n`` scratches stacked on a leading axis of every field (one per thread chunk of
+    ``engine._runtime_kernels.goals_pairs_parallel``)."""
+    one = make_scratch(animation, binding)
+    return EvalScratch(*(np.zeros((n,) + a.shape) for a in one))
+
+
 def default_target(animation: Animation, creature, name: str) -> np.ndarray:
     """Preview position of external target ``name``: its default (x forward, y left, z up)
     from the centre of the creature's ground footprint, x and y in units of the

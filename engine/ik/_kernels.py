@@ -17,6 +17,8 @@ import math
 from collections import namedtuple
 
 from numba import njit
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 
 # -- the plan layout ------------------------------------------------------------------
 # (name, width): width 1 fields are 1-D, 3 and 4 are (n, 3) / (n, 4). The order here is
@@ -443,22 +445,65 @@ def project_length(pos, parent, child, length, plo, phi):
 # -- plan unpacking -------------------------------------------------------------------
 
 
+@intrinsic
+def borrow(typingctx, arr):
+    """A view of ``arr`` that numba does not reference-count (its meminfo is NULL); for a
+    (named) tuple of arrays, the same tuple of such views.
+
+    Every ``P.field`` read inside the solve hands out a new reference to the plan blob
+    the field views, and numba counts it up and down (an atomic add each time, thousands
+    per solve). On a crowd solved by several threads those counts all land on the same
+    few blobs: the cache line holding the count bounces between the cores. A borrowed
+    view is counted as nothing. Only for views used while their owner is an argument of
+    the running kernel (they never escape it)."""
+    if not isinstance(arr, (types.Array, types.BaseTuple)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return _borrowed(context, builder, arr, args[0])
+
+    return arr(arr), codegen
+
+
+def _borrowed(context, builder, ty, value):
+    """``value`` of type ``ty`` with every array in it (also inside (named) tuples)
+    re-made with a NULL meminfo and parent; anything else unchanged."""
+    if isinstance(ty, types.Array):
+        src = context.make_array(ty)(context, builder, value=value)
+        dst = context.make_array(ty)(context, builder)
+        dst.meminfo = cgutils.get_null_value(dst.meminfo.type)
+        dst.parent = cgutils.get_null_value(dst.parent.type)
+        dst.nitems = src.nitems
+        dst.itemsize = src.itemsize
+        dst.data = src.data
+        dst.shape = src.shape
+        dst.strides = src.strides
+        return dst._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        out = value
+        for k, et in enumerate(ty.types):
+            out = builder.insert_value(out, _borrowed(context, builder, et, builder.extract_value(value, k)), k)
+        return out
+    return value
+
+
 @njit(cache=True, inline="always")
 def _i(pi, k):
     o = pi[2 * k]
-    return pi[o:o + pi[2 * k + 1]]
+    return borrow(pi[o:o + pi[2 * k + 1]])
 
 
 @njit(cache=True, inline="always")
 def _f(pi, pf, k):
     h = 2 * (NINT + k)
     o = pi[h]
-    return pf[o:o + pi[h + 1]]
+    return borrow(pf[o:o + pi[h + 1]])
 
 
 @njit(cache=True)
 def unpack(pi, pf, pf3, pf4):
-    """The plan blobs as a ``PlanArrays`` NamedTuple of views (no copies)."""
+    """The plan blobs as a ``PlanArrays`` NamedTuple of borrowed views (no copies, no
+    reference counts: the caller's blobs must outlive it, as kernel arguments do)."""
     return PlanArrays(
         _i(pi, 0), _i(pi, 1), _i(pi, 2), _i(pi, 3), _i(pi, 4), _i(pi, 5), _i(pi, 6), _i(pi, 7),
         _i(pi, 8), _i(pi, 9), _i(pi, 10), _i(pi, 11), _i(pi, 12), _i(pi, 13), _i(pi, 14),
@@ -507,9 +552,12 @@ def _scratch_views(P, scratch):
 
 
 # -- the solve ------------------------------------------------------------------------
+# The stages below take the plan ``P`` (a NamedTuple of 92 arrays) and are inlined into
+# ``solve_one`` by numba: a real call passes all 92 array structs (some 5 KB) by value,
+# which cost about a third of a solve.
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint):
     """Section 4.3.1: 6-DOF goals become 3-DOF goals at the body's joint. The body's
     rotation at the goal is the rotation goal where one is given (blended by its weight
@@ -541,7 +589,7 @@ def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_ro
         set3(goal_joint, gi, vsub(v3(goal_pos, g), qrot(est, v3(P.b_joint_offset, g))))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
     """A delegated goal with a rotation fixes its spine body's rotation, so it also gives
     that spine body's joint a target: the delegated joint's target minus the chord turned
@@ -555,7 +603,7 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
         set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
     for d in range(P.dg_body.shape[0]):
         db = P.dg_body[d]
@@ -568,7 +616,7 @@ def _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
             sp_inv[i] = min(sp_inv[i], 1.0 - w)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
                  state, sp_acc):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
@@ -652,7 +700,7 @@ def _flush_acc(sp_pos, sp_acc, i):
         sp_acc[i, 2] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _buckle_metric(P, root_rot, sp_pos):
     """How far the spine has folded: the largest increase, over the rest pose, of the
     angle between neighbouring spine constraints (the first constraint of a side with no
@@ -675,7 +723,7 @@ def _buckle_metric(P, root_rot, sp_pos):
     return worst
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _root_influence(P, root_pos, root_rot, sp_pos):
     """Footnote 8: the root's immediate spine children pull the root's rotation slightly
     toward where the spine phase moved them (a fraction of the mean rotation)."""
@@ -699,7 +747,7 @@ def _root_influence(P, root_pos, root_rot, sp_pos):
     return qnormalize(qmul(qaxis_angle(rv, ang), root_rot))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                        out_pos, out_rot, buckle):
     """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
@@ -812,7 +860,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             set3(out_pos, body, vadd(joint, qrot(rot, v3(P.b_joint_offset, body))))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot, lg_target, lg_jtarget):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
@@ -902,7 +950,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos):
     """The soft reach bent a serial limb as if its goal were a little closer; now stretch
     the limb uniformly about its root (within the allowed stretch) so its end meets the
@@ -997,7 +1045,7 @@ def _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp
                 lp_inv[j] = 1.0 - wj
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, n_outer, n_inner):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
     constraints leaves inward, and an outward projection of every particle to its allowed
@@ -1031,7 +1079,7 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
             _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, False)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """Limb reconstruction (4.3.3): positions by outward projection to the allowed
     stretch, orientations by minimal twist from the rest pose, or from two constraint
@@ -1096,7 +1144,7 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
         set3(out_pos, b, vadd(v3(lp_pos, i), qrot(rot, v3(P.b_joint_offset, b))))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place_rigid(P, out_pos, out_rot):
     """Delegated bodies ride rigidly on their spine parent (the spine bent for them)."""
     for k in range(P.rg_body.shape[0]):
@@ -1146,7 +1194,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
                 out_pos, out_rot, lg_target, lg_jtarget)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w):
     """-1 when the inputs are usable; -2 for a bad root pose; else the first goal body
     with a non-finite goal, a weight outside [0, 1] or a zero rotation goal. Checked in
@@ -1205,16 +1253,29 @@ def solve_packed_batch(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goa
     P = unpack(plan_i, plan_f, plan_f3, plan_f4)
     nbad = 0
     for c in range(root_pos.shape[0]):
-        bad[c] = check_inputs(P, root_pos[c], root_rot[c], goal_pos[c], goal_rot[c], goal_pos_w[c],
-                              goal_rot_w[c])
-        if bad[c] != -1:
-            nbad += 1
-            continue
-        solve_one(P, (root_pos[c, 0], root_pos[c, 1], root_pos[c, 2]),
-                  (root_rot[c, 0], root_rot[c, 1], root_rot[c, 2], root_rot[c, 3]),
-                  goal_pos[c], goal_rot[c], goal_pos_w[c], goal_rot_w[c], out_pos[c], out_rot[c],
-                  scratch)
+        nbad += solve_row(P, c, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot,
+                          scratch, bad)
     return nbad
+
+
+@njit(cache=True)
+def solve_row(P, c, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot, scratch, bad):
+    """Row ``c`` of stacked inputs (leading axis over characters): checks its input into
+    ``bad[c]`` and solves it if usable; returns 1 for a bad row, else 0. The row views are
+    borrowed (see ``borrow``): threads solving other rows never touch a shared count."""
+    gp = borrow(goal_pos[c])
+    gr = borrow(goal_rot[c])
+    gpw = borrow(goal_pos_w[c])
+    grw = borrow(goal_rot_w[c])
+    rp = borrow(root_pos[c])
+    rr = borrow(root_rot[c])
+    code = check_inputs(P, rp, rr, gp, gr, gpw, grw)
+    bad[c] = code
+    if code != -1:
+        return 1
+    solve_one(P, (rp[0], rp[1], rp[2]), (rr[0], rr[1], rr[2], rr[3]), gp, gr, gpw, grw, borrow(out_pos[c]),
+              borrow(out_rot[c]), borrow(scratch))
+    return 0
 
 
 @njit(cache=True)
