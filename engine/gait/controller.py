@@ -283,13 +283,12 @@ class GaitController:
 
                     top = 0.5 * r.group_length[g]
                     d = top
-                    for i in range(tries):
+                    for _ in range(tries):
                         if passes(d):
+                            # (no finer search: the tests sample a few stances, and the 30% steps
+                            # leave the margin the stances between them need; refining by 1.2
+                            # let a random creature's planted feet slide 7 mm)
                             seen = max(seen, stretch_seen[0])
-                            # one step back up, between this sweep and the one that failed
-                            if i > 0 and passes(1.2 * d):
-                                d *= 1.2
-                                seen = max(seen, stretch_seen[0])
                             break
                         d *= 0.7
                     else:
