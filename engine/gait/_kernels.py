@@ -390,7 +390,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
               foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_world,
               foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, foot_tilt, root_dq, root_dpos,
               bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, foot_bias,
-              step_lift_u, step_parked, step_done):
+              step_lift_u, step_parked, step_done, clearance):
     """Stage 2 of a frame (see the module docstring).
 
     place_pos (3,), yaw        this frame's placement (world)
@@ -406,6 +406,9 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     step_lift_u, step_parked, step_done (S,)  as in ``gait_plan`` (a hanging compass leg lifts here)
     foot_bias (F, 3)           the IK's constant miss of each foot at the rest stance
                                (character space): taken off the goal so the output lands on the spot
+    clearance                  m the whole character stands above the ground (root and every
+                               foot goal raised alike, so the legs' geometry is unchanged): the
+                               margin for the IK's miss varying on uneven ground
     """
     nfoot = foot_body.shape[0]
     ngroup = group_lift.shape[0]
@@ -595,7 +598,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             dy = foot_world[f, 1] - place_pos[1]
             goal_pos[b, 0] = cy * dx + sy * dy - foot_bias[f, 0]
             goal_pos[b, 1] = -sy * dx + cy * dy - foot_bias[f, 1]
-            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2] - foot_bias[f, 2]
+            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2] - foot_bias[f, 2] + clearance
             goal_pw[b] = 1.0
             # rotation: yaw relative to the heading, the slope tilt, the flight pitch (toe up
             # about the character's left axis), then the rest rotation
@@ -607,3 +610,5 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             for j in range(4):
                 goal_rot[b, j] = q[j]
             goal_rw[b] = 1.0
+    # the root rises with the goals (after the compass hips above were set from the feet)
+    root_pos[2] += clearance

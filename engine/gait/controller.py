@@ -43,6 +43,12 @@ BIAS_SHARE = 0.03
 #: The calibration picks the least crouch whose half-sweep is at least this share of the
 #: best it found at any crouch.
 CROUCH_SWEEP_SHARE = 0.7
+#: Height (m) the whole character stands above the terrain (root and foot goals raised
+#: alike): the calibration lets a planted foot's IK miss vary by up to ``CAL_TOL`` from its
+#: constant part, so on uneven ground the output may sink by about that much; twice it keeps
+#: every foot above the ground and costs the touchdown error under a millimetre.
+CAL_TOL = 3e-4
+GROUND_CLEARANCE = 2.0 * CAL_TOL
 #: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
 #: legs stand (``GaitController.immobile``).
 MIN_SWEEP_SHARE = 0.01
@@ -157,7 +163,7 @@ class GaitController:
         if r.nstep:
             self._calibrate()
 
-    def _calibrate(self, tol: float = 3e-4, tries: int = 12) -> None:
+    def _calibrate(self, tol: float = CAL_TOL, tries: int = 12) -> None:
         """Measure with the IK itself how far each group's feet may sweep from their rest
         spots (every foot of the group displaced together along +-x and +-y, as the body
         moves over planted feet) at a few crouch depths of the hips, then pick the least
@@ -722,7 +728,7 @@ class GaitController:
                     self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
                     1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw, self.foot_bias, self.step_lift_u, self.step_parked,
-                    self.step_done)
+                    self.step_done, GROUND_CLEARANCE if r.nfoot else 0.0)
         self._last_place[:] = place_pos
         self._prev_root_pos[:] = root_pos
         self._prev_root_rot[:] = root_rot
