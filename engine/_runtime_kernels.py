@@ -22,14 +22,8 @@ def goals_pairs(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot,
     playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``. The
     body rows of each pair's target table (after its ``n_ext`` external rows) are filled
     first from that character's current pose ``char_pos``."""
-    for k in range(times.shape[0]):
-        c = pair_char[k]
-        s = pair_slot[k]
-        for b in range(char_pos.shape[1]):
-            for j in range(3):
-                tables[k, n_ext + b, j] = char_pos[c, b, j]
-        goals_kernel(cv, consts, pos_on, rot_on, tables[k], times[k], rest_pos, rest_rot, scratch,
-                     sg_pos[c, s], sg_rot[c, s], sg_pw[c, s], sg_rw[c, s])
+    _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
+                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, 0, times.shape[0])
 
 
 @njit(cache=True, parallel=True)
@@ -41,25 +35,34 @@ def goals_pairs_parallel(cv, consts, pos_on, rot_on, tables, times, pair_char, p
     nchunk = scratches.work33.shape[0]
     n = times.shape[0]
     for t in prange(nchunk):
-        # Borrowed views (see engine.ik._kernels.borrow): threads share no counts.
-        cvb = borrow(cv)
-        cb = borrow(consts)
-        po = borrow(pos_on)
-        ro = borrow(rot_on)
-        rp = borrow(rest_pos)
-        rr = borrow(rest_rot)
-        sc = EvalScratch(borrow(scratches.ch_pos[t]), borrow(scratches.ch_rot[t]), borrow(scratches.ch_weight[t]),
-                         borrow(scratches.slot_pos[t]), borrow(scratches.slot_rot[t]),
-                         borrow(scratches.slot_weight[t]), borrow(scratches.work33[t]), borrow(scratches.work34[t]))
-        for k in range(t * n // nchunk, (t + 1) * n // nchunk):
-            c = pair_char[k]
-            s = pair_slot[k]
-            table = borrow(tables[k])
-            for b in range(char_pos.shape[1]):
-                for j in range(3):
-                    table[n_ext + b, j] = char_pos[c, b, j]
-            goals_kernel(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]), borrow(sg_rot[c, s]),
-                         borrow(sg_pw[c, s]), borrow(sg_rw[c, s]))
+        sc = EvalScratch(scratches.ch_pos[t], scratches.ch_rot[t], scratches.ch_weight[t], scratches.slot_pos[t],
+                         scratches.slot_rot[t], scratches.slot_weight[t], scratches.work33[t], scratches.work34[t])
+        _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, sc,
+                     sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, t * n // nchunk, (t + 1) * n // nchunk)
+
+
+@njit(cache=True)
+def _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
+                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, lo, hi):
+    """Pairs ``lo..hi`` of ``goals_pairs`` with one scratch. Everything is borrowed (see
+    engine.ik._kernels.borrow): no reference counts per array read, none shared between
+    threads."""
+    cvb = borrow(cv)
+    cb = borrow(consts)
+    po = borrow(pos_on)
+    ro = borrow(rot_on)
+    rp = borrow(rest_pos)
+    rr = borrow(rest_rot)
+    sc = borrow(scratch)
+    for k in range(lo, hi):
+        c = pair_char[k]
+        s = pair_slot[k]
+        table = borrow(tables[k])
+        for b in range(char_pos.shape[1]):
+            for j in range(3):
+                table[n_ext + b, j] = char_pos[c, b, j]
+        goals_kernel(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]), borrow(sg_rot[c, s]),
+                     borrow(sg_pw[c, s]), borrow(sg_rw[c, s]))
 
 
 @njit(cache=True)

@@ -117,24 +117,24 @@ EPS = 1e-12
 # -- small vector and quaternion algebra on tuples -------------------------------------
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def v3(a, i):
     return (a[i, 0], a[i, 1], a[i, 2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def q4(a, i):
     return (a[i, 0], a[i, 1], a[i, 2], a[i, 3])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def set3(a, i, v):
     a[i, 0] = v[0]
     a[i, 1] = v[1]
     a[i, 2] = v[2]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def set4(a, i, q):
     a[i, 0] = q[0]
     a[i, 1] = q[1]
@@ -142,42 +142,42 @@ def set4(a, i, q):
     a[i, 3] = q[3]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vadd(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vsub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vscale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vdot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vcross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vnorm(a):
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def vlerp(a, b, t):
     return (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def qmul(a, b):
     aw, ax, ay, az = a
     bw, bx, by, bz = b
@@ -187,12 +187,12 @@ def qmul(a, b):
             aw * bz + ax * by - ay * bx + az * bw)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def qconj(q):
     return (q[0], -q[1], -q[2], -q[3])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def qrot(q, v):
     # v + 2w (u x v) + 2 u x (u x v), u the vector part
     u = (q[1], q[2], q[3])
@@ -200,7 +200,7 @@ def qrot(q, v):
     return vadd(vadd(v, vscale(t, q[0])), vcross(u, t))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def qnormalize(q):
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     if n < EPS:
@@ -208,7 +208,7 @@ def qnormalize(q):
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def qaxis_angle(axis, angle):
     n = vnorm(axis)
     if n < EPS:
@@ -217,7 +217,7 @@ def qaxis_angle(axis, angle):
     return (math.cos(0.5 * angle), axis[0] * s, axis[1] * s, axis[2] * s)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def qbetween(u, v):
     """Minimal-twist (shortest-arc) rotation taking direction u to direction v. For
     opposite directions the axis is the one perpendicular to u closest to the x axis,
@@ -240,7 +240,7 @@ def qbetween(u, v):
     return qnormalize((1.0 + d, c[0], c[1], c[2]))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def qslerp(a, b, t):
     if t >= 1.0:
         return b
@@ -260,7 +260,7 @@ def qslerp(a, b, t):
     return (wa * a[0] + wb * b[0], wa * a[1] + wb * b[1], wa * a[2] + wb * b[2], wa * a[3] + wb * b[3])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def qlog(q):
     """Rotation vector (axis * angle) of a unit quaternion, angle in [0, pi]."""
     if q[0] < 0.0:
@@ -272,7 +272,7 @@ def qlog(q):
     return (q[1] * ang / s, q[2] * ang / s, q[3] * ang / s)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def twist_angle(q, axis):
     """Angle of the twist part of q about the unit ``axis`` (swing-twist split), (-pi, pi]."""
     p = q[1] * axis[0] + q[2] * axis[1] + q[3] * axis[2]
@@ -284,7 +284,7 @@ def twist_angle(q, axis):
     return ang
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def smoothstep(x):
     if x <= 0.0:
         return 0.0
@@ -296,7 +296,7 @@ def smoothstep(x):
 # -- quintic Hermite spline (section 4.3.2, "Spine Splines") ---------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hermite5_basis(t):
     """Quintic Hermite basis on [0, 1] for (p0, v0, a0, p1, v1, a1)."""
     t2 = t * t
@@ -311,7 +311,7 @@ def hermite5_basis(t):
             0.5 * t3 - t4 + 0.5 * t5)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hermite5_dbasis(t):
     """Derivatives of ``hermite5_basis`` with respect to t."""
     t2 = t * t
@@ -325,7 +325,7 @@ def hermite5_dbasis(t):
             1.5 * t2 - 4.0 * t3 + 2.5 * t4)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hermite5_point(p0, v0, a0, p1, v1, a1, t):
     h = hermite5_basis(t)
     return (h[0] * p0[0] + h[1] * v0[0] + h[2] * a0[0] + h[3] * p1[0] + h[4] * v1[0] + h[5] * a1[0],
@@ -333,7 +333,7 @@ def hermite5_point(p0, v0, a0, p1, v1, a1, t):
             h[0] * p0[2] + h[1] * v0[2] + h[2] * a0[2] + h[3] * p1[2] + h[4] * v1[2] + h[5] * a1[2])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def hermite5_tangent(p0, v0, a0, p1, v1, a1, t):
     h = hermite5_dbasis(t)
     return (h[0] * p0[0] + h[1] * v0[0] + h[2] * a0[0] + h[3] * p1[0] + h[4] * v1[0] + h[5] * a1[0],
@@ -341,7 +341,7 @@ def hermite5_tangent(p0, v0, a0, p1, v1, a1, t):
             h[0] * p0[2] + h[1] * v0[2] + h[2] * a0[2] + h[3] * p1[2] + h[4] * v1[2] + h[5] * a1[2])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def transport_frame(p0, v0, a0, p1, v1, a1, frame, t_from, t_to, nsub):
     """Carry ``frame`` along the spline from t_from to t_to by minimal-twist steps, so the
     frame turns with the tangent and never spins about it (parallel transport)."""
@@ -358,7 +358,7 @@ def transport_frame(p0, v0, a0, p1, v1, a1, frame, t_from, t_to, nsub):
 # -- the soft length constraint (section 4.3.1) ----------------------------------------
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def soft_response(e, slope, band, width):
     """Correction for a relative length error ``e``, C1 and piecewise: ``slope * e``
     inside the band (soft: only part of a small error is removed per sweep), a quadratic
@@ -375,7 +375,7 @@ def soft_response(e, slope, band, width):
     return c if e >= 0.0 else -c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
     """One nonlinear length correction (Jakobsen 2001): move both endpoints along the
     constraint axis, in inverse proportion to their masses, by the soft response to how
@@ -407,7 +407,7 @@ def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slop
         pos[b, j] -= wb * corr * d[j]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
     """The moves ``relax_constraint`` would make, returned instead of applied (for the
     simultaneous update of several goals pulling one particle)."""
@@ -429,7 +429,7 @@ def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, ba
     return vscale(d, wa * corr), vscale(d, -wb * corr)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def project_length(pos, parent, child, length, plo, phi):
     """Projection of reconstruction: put ``child`` on the ray from ``parent`` at a length
     within [plo, phi] * length (section 4.3.2, "Reconstruction")."""
@@ -487,20 +487,20 @@ def _borrowed(context, builder, ty, value):
     return value
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _i(pi, k):
     o = pi[2 * k]
     return borrow(pi[o:o + pi[2 * k + 1]])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _f(pi, pf, k):
     h = 2 * (NINT + k)
     o = pi[h]
     return borrow(pf[o:o + pi[h + 1]])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def unpack(pi, pf, pf3, pf4):
     """The plan blobs as a ``PlanArrays`` NamedTuple of borrowed views (no copies, no
     reference counts: the caller's blobs must outlive it, as kernel arguments do)."""
@@ -525,7 +525,7 @@ def unpack(pi, pf, pf3, pf4):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _scratch_views(P, scratch):
     """Views of the scratch rows (scratch is (rows, 3) float64; per-particle scalars use
     column 0 of their own rows, so every view is a plain slice)."""
@@ -557,7 +557,7 @@ def _scratch_views(P, scratch):
 # which cost about a third of a solve.
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint):
     """Section 4.3.1: 6-DOF goals become 3-DOF goals at the body's joint. The body's
     rotation at the goal is the rotation goal where one is given (blended by its weight
@@ -589,7 +589,7 @@ def _goal_targets(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_ro
         set3(goal_joint, gi, vsub(v3(goal_pos, g), qrot(est, v3(P.b_joint_offset, g))))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
     """A delegated goal with a rotation fixes its spine body's rotation, so it also gives
     that spine body's joint a target: the delegated joint's target minus the chord turned
@@ -603,20 +603,22 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
         set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
 
 
-@njit(cache=True, inline="always")
-def _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
-    for d in range(P.dg_body.shape[0]):
-        db = P.dg_body[d]
+@njit(cache=True, _nrt=False, inline="always")
+def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
+    # The helpers called inside iteration loops take the plan arrays they read, not the
+    # plan: an inlined ``P`` argument is a copy of 92 arrays (a reference count each).
+    for d in range(dg_body.shape[0]):
+        db = dg_body[d]
         w = min(max(goal_pos_w[db], 0.0), 1.0) * min(max(goal_rot_w[db], 0.0), 1.0)
         if w <= 0.0 or (not first and w >= 1.0):
             continue
-        i = P.dg_spine_particle[d]
+        i = dg_spine_particle[d]
         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(dg_target, d), w))
         if first:
             sp_inv[i] = min(sp_inv[i], 1.0 - w)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
                  state, sp_acc):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
@@ -641,7 +643,8 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
         w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
         sp_inv[i] = 1.0 - w
-    _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True)
+    dg_body, dg_spine_particle = P.dg_body, P.dg_spine_particle
+    _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True)
     buckle = 0.0
     nsc = P.sc_a.shape[0]
     n_outer = int(prm[P_SPINE_OUTER])
@@ -683,15 +686,16 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                     w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                     if 0.0 < w < 1.0:
                         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
-            _pin_delegated(P, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False)
+            _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False)
         if anti:
-            b = smoothstep((_buckle_metric(P, root_rot, sp_pos) - prm[P_BUCKLE_ON])
+            b = smoothstep((_buckle_metric(P.bp_c1, P.bp_c2, P.bp_sign1, P.bp_rest_angle, P.sc_a, P.sc_b, P.sp_rest,
+                                           root_rot, sp_pos) - prm[P_BUCKLE_ON])
                            / (prm[P_BUCKLE_FULL] - prm[P_BUCKLE_ON]))
             buckle = max(buckle, b)
     state[0] = buckle
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _flush_acc(sp_pos, sp_acc, i):
     if sp_acc[i, 0] != 0.0 or sp_acc[i, 1] != 0.0 or sp_acc[i, 2] != 0.0:
         set3(sp_pos, i, vadd(v3(sp_pos, i), v3(sp_acc, i)))
@@ -700,30 +704,30 @@ def _flush_acc(sp_pos, sp_acc, i):
         sp_acc[i, 2] = 0.0
 
 
-@njit(cache=True, inline="always")
-def _buckle_metric(P, root_rot, sp_pos):
+@njit(cache=True, _nrt=False, inline="always")
+def _buckle_metric(bp_c1, bp_c2, bp_sign1, bp_rest_angle, sc_a, sc_b, sp_rest, root_rot, sp_pos):
     """How far the spine has folded: the largest increase, over the rest pose, of the
     angle between neighbouring spine constraints (the first constraint of a side with no
     neighbour is compared with its own rest direction carried by the root), rad."""
     worst = 0.0
-    for k in range(P.bp_c2.shape[0]):
-        c2 = P.bp_c2[k]
-        d2 = vsub(v3(sp_pos, P.sc_b[c2]), v3(sp_pos, P.sc_a[c2]))
-        c1 = P.bp_c1[k]
+    for k in range(bp_c2.shape[0]):
+        c2 = bp_c2[k]
+        d2 = vsub(v3(sp_pos, sc_b[c2]), v3(sp_pos, sc_a[c2]))
+        c1 = bp_c1[k]
         if c1 >= 0:
-            d1 = vscale(vsub(v3(sp_pos, P.sc_b[c1]), v3(sp_pos, P.sc_a[c1])), P.bp_sign1[k])
+            d1 = vscale(vsub(v3(sp_pos, sc_b[c1]), v3(sp_pos, sc_a[c1])), bp_sign1[k])
         else:
-            d1 = qrot(root_rot, vsub(v3(P.sp_rest, P.sc_b[c2]), v3(P.sp_rest, P.sc_a[c2])))
+            d1 = qrot(root_rot, vsub(v3(sp_rest, sc_b[c2]), v3(sp_rest, sc_a[c2])))
         n1 = vnorm(d1)
         n2 = vnorm(d2)
         if n1 < EPS or n2 < EPS:
             continue
         c = min(max(vdot(d1, d2) / (n1 * n2), -1.0), 1.0)
-        worst = max(worst, math.acos(c) - P.bp_rest_angle[k])
+        worst = max(worst, math.acos(c) - bp_rest_angle[k])
     return worst
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _root_influence(P, root_pos, root_rot, sp_pos):
     """Footnote 8: the root's immediate spine children pull the root's rotation slightly
     toward where the spine phase moved them (a fraction of the mean rotation)."""
@@ -747,7 +751,7 @@ def _root_influence(P, root_pos, root_rot, sp_pos):
     return qnormalize(qmul(qaxis_angle(rv, ang), root_rot))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                        out_pos, out_rot, buckle):
     """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
@@ -860,7 +864,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             set3(out_pos, body, vadd(joint, qrot(rot, v3(P.b_joint_offset, body))))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot, lg_target, lg_jtarget):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
@@ -882,7 +886,8 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     for gi in range(P.goal_body.shape[0]):
         if P.goal_lp[gi] < 0:
             continue
-        set3(lg_target, gi, _limb_target(P, goal_pos, goal_joint, lp_pos, gi))
+        set3(lg_target, gi, _limb_target(P.goal_lpj, P.goal_body, P.goal_lproot, P.goal_reach, prm[P_SOFT_REACH],
+                                         goal_pos, goal_joint, lp_pos, gi))
         if P.goal_lpj[gi] >= 0:
             set3(lg_jtarget, gi, soft_reach(v3(goal_joint, gi), v3(lp_pos, P.goal_lproot[gi]), P.goal_reachj[gi],
                                             P.params[P_SOFT_REACH]))
@@ -950,7 +955,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos):
     """The soft reach bent a serial limb as if its goal were a little closer; now stretch
     the limb uniformly about its root (within the allowed stretch) so its end meets the
@@ -985,7 +990,7 @@ def _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
             set3(lp_pos, m, vadd(r, vscale(vsub(v3(lp_pos, m), r), k)))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def soft_reach(target, origin, reach, soft):
     """Soft reach (no knee pop): past ``soft * reach`` from ``origin`` the distance of a
     target is eased toward ``reach`` exponentially, C1 at the join, so as a goal moves out
@@ -1007,37 +1012,38 @@ def soft_reach(target, origin, reach, soft):
     return vadd(origin, vscale(d, eased / dist))
 
 
-@njit(cache=True, inline="always")
-def _limb_target(P, goal_pos, goal_joint, lp_pos, gi):
+@njit(cache=True, _nrt=False, inline="always")
+def _limb_target(goal_lpj, goal_body, goal_lproot, goal_reach, soft, goal_pos, goal_joint, lp_pos, gi):
     """Where goal ``gi`` pins its limb particle: a tip particle (at the body's origin) goes
     to the position goal itself, a joint particle to the goal converted to the joint;
     both within the limb's soft reach."""
-    if P.goal_lpj[gi] >= 0:
-        t = v3(goal_pos, P.goal_body[gi])
+    if goal_lpj[gi] >= 0:
+        t = v3(goal_pos, goal_body[gi])
     else:
         t = v3(goal_joint, gi)
-    return soft_reach(t, v3(lp_pos, P.goal_lproot[gi]), P.goal_reach[gi], P.params[P_SOFT_REACH])
+    return soft_reach(t, v3(lp_pos, goal_lproot[gi]), goal_reach[gi], soft)
 
 
-@njit(cache=True, inline="always")
-def _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, first):
+@njit(cache=True, _nrt=False, inline="always")
+def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos,
+                    lp_inv, first):
     """Pull goal particles toward their targets by the goal weight (the first time also
     making them heavy in proportion). A body with a tip particle has its tip pinned at
     the position goal and, as far as it has a rotation goal, its joint at the 6-DOF goal
     converted to the joint (4.3.1); without a rotation goal the joint is free and the tip
     decides the body's direction, so position-only goals are met exactly."""
-    for gi in range(P.goal_body.shape[0]):
-        i = P.goal_lp[gi]
-        if i < 0 or P.lp_parent[i] < 0:
+    for gi in range(goal_body.shape[0]):
+        i = goal_lp[gi]
+        if i < 0 or lp_parent[i] < 0:
             continue
-        b = P.goal_body[gi]
+        b = goal_body[gi]
         w = min(max(goal_pos_w[b], 0.0), 1.0)
         if w > 0.0 and (first or w < 1.0):
             set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(lg_target, gi), w))
         if first:
             lp_inv[i] = 1.0 - w
-        j = P.goal_lpj[gi]
-        if j >= 0 and P.lp_parent[j] >= 0:
+        j = goal_lpj[gi]
+        if j >= 0 and lp_parent[j] >= 0:
             wj = w * min(max(goal_rot_w[b], 0.0), 1.0)
             if wj > 0.0 and (first or wj < 1.0):
                 set3(lp_pos, j, vlerp(v3(lp_pos, j), v3(lg_jtarget, gi), wj))
@@ -1045,7 +1051,7 @@ def _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp
                 lp_inv[j] = 1.0 - wj
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, n_outer, n_inner):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
     constraints leaves inward, and an outward projection of every particle to its allowed
@@ -1054,7 +1060,9 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
     (the same projection ends the solve, section 4.3.3 "Reconstruction")."""
     prm = P.params
     slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
-    _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, True)
+    goal_body, goal_lp, goal_lpj, lp_parent = P.goal_body, P.goal_lp, P.goal_lpj, P.lp_parent
+    _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos,
+                    lp_inv, True)
     nlc = P.lc_a.shape[0]
     nlp = P.lp_body.shape[0]
     for _outer in range(n_outer):
@@ -1063,7 +1071,8 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                 c = P.lp_con[i]
                 if c >= 0:
                     project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
-            _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, True)
+            _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget,
+                            lp_pos, lp_inv, True)
         for _inner in range(n_inner):
             for c in range(nlc):
                 stiff = 1.0
@@ -1076,10 +1085,11 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                         continue
                 relax_constraint(lp_pos, lp_inv, P.lc_a[c], P.lc_b[c], P.lc_len[c], P.lc_lo[c],
                                  P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], stiff, slope, band, width)
-            _pin_limb_goals(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, False)
+            _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget,
+                            lp_pos, lp_inv, False)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """Limb reconstruction (4.3.3): positions by outward projection to the allowed
     stretch, orientations by minimal twist from the rest pose, or from two constraint
@@ -1144,7 +1154,7 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
         set3(out_pos, b, vadd(v3(lp_pos, i), qrot(rot, v3(P.b_joint_offset, b))))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def _place_rigid(P, out_pos, out_rot):
     """Delegated bodies ride rigidly on their spine parent (the spine bent for them)."""
     for k in range(P.rg_body.shape[0]):
@@ -1155,7 +1165,7 @@ def _place_rigid(P, out_pos, out_rot):
         set3(out_pos, b, vadd(v3(out_pos, p), qrot(rp, v3(P.b_local_pos, b))))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot,
               scratch):
     """One whole solve: goals to joint targets, spine phase, root influence, spine
@@ -1194,7 +1204,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
                 out_pos, out_rot, lg_target, lg_jtarget)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, inline="always")
 def check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w):
     """-1 when the inputs are usable; -2 for a bad root pose; else the first goal body
     with a non-finite goal, a weight outside [0, 1] or a zero rotation goal. Checked in
@@ -1229,7 +1239,7 @@ def check_inputs(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_packed(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
                  out_pos, out_rot, scratch):
     """One solve from the plan blobs; see ``engine.ik.solver.solve_ik``. Returns the
@@ -1244,7 +1254,7 @@ def solve_packed(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goal_pos,
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_packed_batch(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w,
                        goal_rot_w, out_pos, out_rot, scratch, bad):
     """Many independent solves sharing one plan (a crowd): inputs stacked on a leading
@@ -1258,7 +1268,7 @@ def solve_packed_batch(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goa
     return nbad
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def solve_row(P, c, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot, scratch, bad):
     """Row ``c`` of stacked inputs (leading axis over characters): checks its input into
     ``bad[c]`` and solves it if usable; returns 1 for a bad row, else 0. The row views are
@@ -1278,7 +1288,7 @@ def solve_row(P, c, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_points):
     """Rest-pose helper for the plan builder: transported frames and spline points at the
     parameters ``ts`` (same steps as the solve, so a rest-pose solve reproduces the rest
