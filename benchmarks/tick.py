@@ -4,10 +4,15 @@
 
 Prints a table and ends with one JSON line: bodies, channels, single_ms (median tick of
 one 25-body humanoid playing the 12-channel ``perform`` animation), crowd_size,
-crowd_ms_per_character, stages (median ms per stage, single character), scaling (single
-tick median for 25, 51 and 80 bodies), cold_start_s (first tick in a fresh process with
-an empty numba cache) and warm_start_s (the same with the cache filled). The paper's
-figure: 0.2 ms per 25-body character frame on a 1.7 GHz Pentium-M.
+crowd_ms_per_character (median crowd tick / crowd size; big crowds sample and solve on
+all cores), crowd_serial_ms_per_character (the same crowd kept on one thread),
+crowd_vs_alone_max_m (largest pose difference between three crowd members and the same
+characters ticked alone), threads (numba's thread count) and threading_layer, stages
+(median ms per stage, single character), scaling (single tick median for 25, 51 and 80
+bodies), cold_start_s (first tick in a fresh process with an empty numba cache) and
+warm_start_s (the same with the cache filled). The paper's figure: 0.2 ms per 25-body
+character frame on a 1.7 GHz Pentium-M. The machine is shared: note ``uptime``'s load
+with the figures (a core busy elsewhere costs the parallel crowd most).
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import sys
 import tempfile
 import time
 
+import numba
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -86,20 +92,28 @@ def single(creature, anim, frames: int) -> tuple[float, dict[str, float]]:
     return float(np.median(ticks) * 1e3), {k: float(np.median(v)) for k, v in stages.items()}
 
 
-def crowd(creature, anim, n: int, frames: int) -> float:
-    chars = [engine.Character(creature, position=(k % 40, k // 40, 0)) for k in range(n)]
+def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
+    """Median ms per character of a crowd tick, and the largest pose difference (m)
+    between members 0-2 and the same characters ticked alone."""
     nvar = engine.bind(anim, creature).nvariant
-    for k, ch in enumerate(chars):
+
+    def make(k):
+        ch = engine.Character(creature, position=(k % 40, k // 40, 0))
         ch.play(anim, variant=k % nvar, speed=0.8 + 0.4 * (k / n))
+        return ch
+
+    chars = [make(k) for k in range(n)]
+    alone = [make(k) for k in range(3)]
     group = engine.Crowd(chars)
-    for _ in range(5):
-        group.tick(DT)
     ticks = []
-    for _ in range(frames):
+    for f in range(5 + frames):
         t = time.perf_counter()
         group.tick(DT)
         ticks.append(time.perf_counter() - t)
-    return float(np.median(ticks) * 1e3 / n)
+        for a in alone:
+            a.tick(DT)
+    diff = max(float(np.abs(a.world_positions - c.world_positions).max()) for a, c in zip(alone, chars))
+    return float(np.median(ticks[5:]) * 1e3 / n), diff
 
 
 def main() -> None:
@@ -119,7 +133,11 @@ def main() -> None:
     for name in ("humanoid", "scorpion", "spikebeast"):
         c = engine.load_creature(os.path.join(ROOT, "creatures", f"{name}.yaml"))
         scaling[str(c.nbody)] = single(c, anim, max(args.frames // 4, 100))[0]
-    crowd_ms = crowd(human, anim, args.crowd, args.crowd_frames)
+    crowd_ms, crowd_diff = crowd(human, anim, args.crowd, args.crowd_frames)
+    parallel_min = R.PARALLEL_MIN_ROWS
+    R.PARALLEL_MIN_ROWS = 1 << 30   # the same crowd on one thread
+    crowd_serial_ms = crowd(human, anim, args.crowd, args.crowd_frames)[0]
+    R.PARALLEL_MIN_ROWS = parallel_min
     cold = warm = None
     if not args.quick:
         with tempfile.TemporaryDirectory() as cache:
@@ -136,11 +154,17 @@ def main() -> None:
     for k, v in scaling.items():
         print(f"{'  ' + k + ' bodies, ms':<34}{v:>12.4f}")
     print(f"{'crowd of ' + str(args.crowd) + ', ms per character':<34}{crowd_ms:>12.4f}")
+    print(f"{'  on one thread, ms per character':<34}{crowd_serial_ms:>12.4f}")
+    print(f"{'  crowd vs alone, max m':<34}{crowd_diff:>12.2e}")
+    print(f"{'  threads (' + numba.threading_layer() + ')':<34}{numba.get_num_threads():>12}")
     if cold is not None:
         print(f"{'cold start (empty numba cache), s':<34}{cold:>12.2f}")
         print(f"{'warm start (numba cache), s':<34}{warm:>12.2f}")
     print(json.dumps({"bodies": human.nbody, "channels": anim.nchannel, "single_ms": round(single_ms, 5),
                       "crowd_size": args.crowd, "crowd_ms_per_character": round(crowd_ms, 5),
+                      "crowd_serial_ms_per_character": round(crowd_serial_ms, 5),
+                      "crowd_vs_alone_max_m": crowd_diff, "threads": numba.get_num_threads(),
+                      "threading_layer": numba.threading_layer(),
                       "stages": {k: round(v, 5) for k, v in stages.items()},
                       "scaling_ms_by_bodies": {k: round(v, 5) for k, v in scaling.items()},
                       "cold_start_s": None if cold is None else round(cold, 2),
