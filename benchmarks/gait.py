@@ -15,6 +15,10 @@ tick_ms_per_character (the whole tick) and immobile (creatures that covered less
 leg length: their gait found no stride the IK meets exactly, so they stand; a crawler's
 "leg length" is the spacing of its pseudo-feet). ``--first-seed 100 --no-library`` runs a
 held-out set of random creatures (seeds 100-199) that no gait choice was tuned on.
+
+Continuity bound (``engine.gait.metrics.continuity_bound``): foot speed <= 12 leg lengths/s
+and root acceleration <= 25 leg lengths/s^2 (knee-less compass legs: 120, their hips' arc
+turns over at each double support); ``over_continuity_bound`` lists the creatures past it.
 """
 
 from __future__ import annotations
@@ -80,6 +84,7 @@ def main() -> None:
             m["worst"] = worst["worst"]
             m["travel"] = min(float(x["travel"]) for x in ms)
             m["finite"] = all(x["finite"] for x in ms)
+            m["over_bound"] = any(x["over_bound"] for x in ms)
             m["gait_ms"] = gait_ms(c)
             if not m["finite"]:
                 failures.append(name)
@@ -109,6 +114,7 @@ def main() -> None:
         "max_stretch_ratio": top("stretch_ratio", walkers),
         "max_root_accel": top("root_accel", rows),
         "max_foot_speed": top("foot_speed", walkers),
+        "over_continuity_bound": [r["creature"] for r in rows if r["over_bound"]],
         "failures": failures,
         "immobile": [r["creature"] for r in rows if r["mode"] != "float" and r["travel"] < 1.0],
         "gait_ms_per_character": round(float(np.mean([r["gait_ms"] for r in rows])) if rows else 0.0, 4),

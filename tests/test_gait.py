@@ -21,7 +21,7 @@ from engine.gait import (
     parse_style_text,
     style_names,
 )
-from engine.gait.metrics import rolling_terrain, run_scenario
+from engine.gait.metrics import continuity_bound, rolling_terrain, run_scenario
 from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test biped
 from engine.model import build_creature, creature_from_text
 from engine.model.random import random_creature_def
@@ -187,6 +187,9 @@ def test_planted_feet_do_not_slide(name, mini):
         assert m["touchdown_error_mm"] <= 10.0, m
         assert m["below_ground_mm"] <= 1.0, m
         assert m["stretch_ratio"] <= 1.02, m
+        # continuity through the sudden stop, reverse and turn (the bound the benchmark states)
+        foot_bound, root_bound = continuity_bound(analyze(c))
+        assert m["foot_speed"] <= foot_bound and m["root_accel"] <= root_bound, m
 
 
 def test_compass_hips_ride_at_leg_length_over_planted_feet(mini):

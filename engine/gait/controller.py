@@ -106,6 +106,13 @@ class GaitController:
         self.group_lift = np.zeros(G)
         self.group_bob = np.zeros(G)
         self.group_sway = np.zeros(G)
+        # static scales read every frame: longest leg group (m), its half-length for the
+        # teleport test, widest foot radius (m), half the body's footprint for the slope (m)
+        self._L = float(np.max(r.group_length)) if r.ngroup else max(float(creature.size[2]), 0.1)
+        self._replant = 0.5 * max(float(np.max(r.group_length)) if r.ngroup else 0.5, 0.05)
+        self._radius = float(np.max(r.group_radius)) if r.ngroup else 0.0
+        self._slope_e = max(0.5 * float(max(creature.size[0], creature.size[1])), 0.05)
+        self._crouch_want = np.zeros(G)
         self.path = np.zeros((G, PATH_SAMPLES, 3))
         self.step_trigger = np.zeros(S)
         self.step_duty_scale = np.ones(S)
@@ -162,6 +169,7 @@ class GaitController:
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
+        self._cache = None                   # the calibration moved the sweeps and crouches
 
     def _calibrate(self, tol: float = CAL_TOL, tries: int = 12) -> None:
         """Measure with the IK itself how far each group's feet may sweep from their rest
@@ -403,6 +411,7 @@ class GaitController:
 
     def _rebuild_patterns(self) -> None:
         r = self.rig
+        self._cache = None                   # per-style constants of ``step`` (``_style_cache``)
         for g in range(len(self._layers)):
             layers = self._layers[g]
             path = layers[0][0].path.copy()
@@ -436,6 +445,30 @@ class GaitController:
             self.step_trigger[steps] = trig
             self.step_duty_scale[steps] = dsc
             self.step_lift_scale[steps] = lsc
+
+    def _style_cache(self) -> dict:
+        """What ``step`` needs of the styles that does not change from frame to frame
+        (rebuilt when a style or the calibration changes): per group the cadence cap
+        (cycles/s), the top speed entry (leg lengths/s) and its row, and the half-sweeps at
+        the top entry's crouch; the style scalars of group 0."""
+        r = self.rig
+        G = max(r.ngroup, 1)
+        c = {"cap": np.zeros(G), "top": np.zeros(G), "p_top": np.zeros((G, 8)), "sa": np.zeros((G, 2)),
+             "settle": np.zeros(G)}
+        for g in range(r.ngroup):
+            Lg = r.group_length[g]
+            mc = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
+            c["cap"][g] = mc * r.group_ratio[g]
+            c["settle"][g] = 0.5 * mc
+            top = self._layers[g][0][0].table[-1, 0]
+            c["top"][g] = top
+            c["p_top"][g] = self._params(g, top)
+            c["sa"][g] = self._sweep(g, min(max(c["p_top"][g, 7] * Lg, self.min_crouch), self.max_crouch))
+        c["accel"] = self._style_scalar(0, "accel")
+        c["turn_accel"] = self._style_scalar(0, "turn_accel")
+        c["slope_align"] = self._style_scalar(0, "slope_align")
+        self._cache = c
+        return c
 
     def _params(self, g: int, rel_speed: float) -> np.ndarray:
         """The blended speed-entry row of group g at ``rel_speed`` (into a reused buffer)."""
@@ -531,7 +564,7 @@ class GaitController:
         yaw_now = 2.0 * math.atan2(float(place_rot[3]), float(place_rot[0]))
         if (not self._started or self._yaw is None
                 or math.hypot(place_pos[0] - self._last_place[0], place_pos[1] - self._last_place[1])
-                > 0.5 * max(float(np.max(r.group_length)) if r.ngroup else 0.5, 0.05)
+                > self._replant
                 or abs(math.remainder(yaw_now - self._yaw, 2 * math.pi)) > 1e-6):
             # first frame, or the game moved the character itself: plant afresh
             self._start(place_pos, yaw_now)
@@ -539,17 +572,18 @@ class GaitController:
             self._prev_root_pos[2] -= self._crouch
             self._prev_root_rot[:] = root_rot
         self._time += dt
-        L = float(np.max(r.group_length)) if r.ngroup else max(float(self.creature.size[2]), 0.1)
+        L = self._L
 
         # 1. speed limit (no overreach) and acceleration-limited root motion
+        sc = self._cache if self._cache is not None else self._style_cache()
         limit = math.inf                   # forward (m/s)
         limit_y = math.inf                 # sideways
         for g in range(r.ngroup):
             Lg = r.group_length[g]
-            cap = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3)) * r.group_ratio[g]
-            top = self._layers[g][0][0].table[-1, 0]
-            p = self._params(g, top)
-            sa = self._sweep(g, min(max(p[7] * Lg, self.min_crouch), self.max_crouch))
+            cap = sc["cap"][g]
+            top = sc["top"][g]
+            p = sc["p_top"][g]
+            sa = sc["sa"][g]
             sb = self._sweep(g, self._crouch)
             duty = max(p[2], 0.05)
             limit = min(limit, cap * min(p[1] * Lg, 1.6 * min(sa[0], sb[0]) / duty), top * Lg * 1.25)
@@ -558,7 +592,7 @@ class GaitController:
         cmd = self._cmd_v
         cmd_speed = math.hypot(cmd[0], cmd[1])
         w_cmd = self._cmd_w
-        radius = float(np.max(r.group_radius)) if r.ngroup else 0.0
+        radius = self._radius
         # the command as a share of what the legs allow (an ellipse of velocities; a turn
         # moves feet either way, so it counts against the smaller limit)
         demand = 0.0
@@ -570,8 +604,8 @@ class GaitController:
             tx, ty, tw = cmd[0] * k, cmd[1] * k, w_cmd * k
         else:
             tx, ty, tw = cmd[0], cmd[1], w_cmd
-        acc = self._style_scalar(0, "accel") * L
-        tacc = self._style_scalar(0, "turn_accel")
+        acc = sc["accel"] * L
+        tacc = sc["turn_accel"]
         dvx, dvy = tx - self.velocity[0], ty - self.velocity[1]
         dv = math.hypot(dvx, dvy)
         if dv > acc * dt:
@@ -628,7 +662,7 @@ class GaitController:
             stride = min(p[1] * Lg, 1.6 * s_dir / duty)
             stride_turn = min(p[1] * Lg, 1.6 * min(sx, sy) / duty)
             f_g = speed / max(stride, 1e-6) + abs(self.turn_rate) * r.group_radius[g] / max(stride_turn, 1e-6)
-            settle = 0.5 * self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
+            settle = sc["settle"][g]
             if not idle:
                 f_g = max(f_g, 0.35 * settle)
             elif any(self.step_parked[s] == 0 for s in self._group_steps[g]):
@@ -642,6 +676,7 @@ class GaitController:
             gain = min(v_eff / Lg, 1.0)
             self.group_bob[g] = p[4] * Lg * gain * self.bob_scale
             self.group_sway[g] = p[5] * Lg * gain
+            self._crouch_want[g] = p[7] * Lg
         for g in range(r.ngroup):
             self.group_rate[g] = base * r.group_ratio[g]
 
@@ -662,7 +697,7 @@ class GaitController:
                         self._prev_root_rot, r.foot_hip, r.foot_jointrel, r.foot_chain, r.foot_rigid,
                         self.group_stretch, self._group_support)
         # ground under the centre and four points around it (slope at the body's scale)
-        e = max(0.5 * float(max(self.creature.size[0], self.creature.size[1])), 0.05)
+        e = self._slope_e
         cy, sy = math.cos(self._yaw), math.sin(self._yaw)
         q[3 * F, 0], q[3 * F, 1] = place_pos[0], place_pos[1]
         q[3 * F + 1, 0], q[3 * F + 1, 1] = place_pos[0] + e * cy, place_pos[1] + e * sy
@@ -696,7 +731,7 @@ class GaitController:
         ay = speed * self.turn_rate
         self._lean[0] += a_t * (lean_k * ax / L - self._lean[0])
         self._lean[1] += a_t * (-lean_k * ay / L - self._lean[1])   # lean into the turn
-        align = self._style_scalar(0, "slope_align")
+        align = sc["slope_align"]
         pitch = -align * math.atan(self._tilt[0]) + self._lean[0]      # nose up on an uphill (-pitch about +y)
         roll = align * math.atan(self._tilt[1]) + self._lean[1]
         _pitch_roll_into(pitch, roll, self._root_dq)
@@ -704,8 +739,7 @@ class GaitController:
         # crouch: the style's, low-pass filtered
         want = self.min_crouch
         for g in range(r.ngroup):
-            v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
-            want = max(want, self._params(g, v_eff / r.group_length[g])[7] * r.group_length[g])
+            want = max(want, self._crouch_want[g])      # the style's crouch at the group's speed (step 2)
         want = min(want, self.max_crouch)
         self._crouch += a_t * (want - self._crouch)
         self._root_dpos[2] = -self._crouch
@@ -762,9 +796,16 @@ def _lerp_col(t: np.ndarray, k: int, x: float, j: int) -> float:
 
 
 def _interp_into(t: np.ndarray, x: float, out: np.ndarray) -> None:
+    """Row of the speed table ``t`` at speed ``x`` (clamped at both ends), into ``out``."""
+    n = t.shape[0]
     k = _bracket(t[:, 0], x)
-    for j in range(8):
-        out[j] = _lerp_col(t, k, x, j)
+    if k + 1 >= n or x <= t[0, 0]:
+        out[:] = t[k if x > t[0, 0] else 0]
+        return
+    a = (x - t[k, 0]) / (t[k + 1, 0] - t[k, 0])
+    np.subtract(t[k + 1], t[k], out=out)
+    out *= a
+    out += t[k]
 
 
 def _rotate(q, v):

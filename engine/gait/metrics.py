@@ -14,6 +14,7 @@ terrain scaled to the creature, and measures on ``char.world_positions`` (after 
 - ``root_accel``: the largest root acceleration, leg lengths per s^2 (continuity: the
   commanded velocity jumps, the root must not);
 - ``foot_speed``: the largest foot speed, leg lengths per s;
+- ``over_bound``: True when foot speed or root acceleration exceed ``continuity_bound``;
 - ``finite``: every output was finite;
 - ``travel``: distance the character covered, in leg lengths (the command asks for about
   7 leg lengths in 8 s; a gait that cannot step without its feet missing their goals
@@ -27,6 +28,21 @@ import time
 import numpy as np
 
 from engine.model.creature import Creature
+
+#: Continuity bounds (issue 6) the scenario's sudden stop, reverse and sharp turn must stay
+#: under, measured on the runtime's output: foot speed in leg lengths per second, root
+#: acceleration in leg lengths per second squared. Knee-less (compass) legs get a looser root
+#: bound: their hips ride on arcs over the planted feet, and the arc's vertical velocity turns
+#: over at each (instantaneous) double support, a kink of about 1.8 leg lengths/s in a frame.
+FOOT_SPEED_BOUND = 12.0
+ROOT_ACCEL_BOUND = 25.0
+ROOT_ACCEL_BOUND_COMPASS = 120.0
+
+
+def continuity_bound(rig) -> tuple[float, float]:
+    """(foot speed, root acceleration) bounds for a creature's gait rig (see above)."""
+    compass = rig.mode == "walk" and rig.nfoot > 0 and bool(np.any(rig.foot_rigid == 1))
+    return FOOT_SPEED_BOUND, ROOT_ACCEL_BOUND_COMPASS if compass else ROOT_ACCEL_BOUND
 
 
 def rolling_terrain(scale: float, amplitude: float = 0.06):
@@ -152,6 +168,8 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
                 if chain[f] > 0:
                     out["stretch_ratio"] = max(out["stretch_ratio"], float(np.linalg.norm(foot_joint - hip_joint))
                                                / chain[f])
+    fb, rb = continuity_bound(rig)
+    out["over_bound"] = bool(out["foot_speed"] > fb or out["root_accel"] > rb)
     out["tick_ms"] = 1000.0 * t_all / max(nsteps - warm, 1)
     return out
 
