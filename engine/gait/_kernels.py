@@ -398,7 +398,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
     foot_tilt (4,)             slope rotation of planted feet, character space
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
-    bob_state (4,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
+    bob_state (6,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
                                height and whether it is set (in/out), and the filter's share per
                                frame (many fast feet must not shake the hips)
     foot_hip/jointrel/chain/rigid  see ``engine.gait.rig`` (compass legs)
@@ -457,8 +457,12 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
                 foot_yaw[f] = foot_lift_yaw[f] + fw * (foot_target_yaw[f] - foot_lift_yaw[f])
     # root: crouch, slope and lean rotation, bob and sway
     n_per = max(step_group.shape[0], 1) / max(ngroup, 1)
-    bob_state[0] += bob_alpha * (bob / max(n_per * 0.5, 1.0) - bob_state[0])
-    bob_state[1] += bob_alpha * (sway / max(n_per * 0.5, 1.0) - bob_state[1])
+    # two first-order stages in a row (bob_state[4:6] the first): a single stage passes the
+    # corners of many short flights' bumps on as root acceleration spikes
+    bob_state[4] += bob_alpha * (bob / max(n_per * 0.5, 1.0) - bob_state[4])
+    bob_state[5] += bob_alpha * (sway / max(n_per * 0.5, 1.0) - bob_state[5])
+    bob_state[0] += bob_alpha * (bob_state[4] - bob_state[0])
+    bob_state[1] += bob_alpha * (bob_state[5] - bob_state[1])
     root_pos[0] += root_dpos[0]
     root_pos[1] += root_dpos[1] + bob_state[1]
     root_pos[2] += root_dpos[2] + bob_state[0]

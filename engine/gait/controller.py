@@ -136,7 +136,7 @@ class GaitController:
         self._foot_tilt = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
-        self._bob = np.zeros(4)
+        self._bob = np.zeros(6)               # see ``_kernels.gait_pose``
         self._row = np.zeros(8)
         self._tilt = np.zeros(2)             # filtered slope (dz/dx, dz/dy) in the character frame
         self._crouch = 0.0
