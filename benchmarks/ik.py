@@ -71,7 +71,7 @@ def time_calls(fn, reps, inner=10):
     return ts
 
 
-@njit
+@njit(_nrt=False)   # compiled as the solve is (engine/ik/_kernels.py: no reference counts)
 def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, grw, out_pos, out_rot, scratch,
                 stage, n):
     P = K.unpack(pi, pf, pf3, pf4)

@@ -555,6 +555,8 @@ class _Group:
         self._pair_list: list = []
         self._plans_version = -1
         self._plan_list: list = []
+        self._events_version = -1
+        self._events = np.zeros(0, np.int64)
 
     def tick(self, dt: float) -> None:
         s = self.stack
@@ -563,10 +565,14 @@ class _Group:
         # 1. player: every clip slot of every member in one kernel
         if st.player:
             advance_arrays(s.player, dt)
-            flagged = s.player.flags.any(axis=1)
-            for row, m in enumerate(self.members):
-                if flagged[row] or m.player.has_event_clips:
-                    m.player.after_advance()
+            # Python only for members where something happened or whose clips have events
+            # (no loop over a thousand members per frame).
+            rows = np.flatnonzero(s.player.flags.any(axis=1))
+            event_rows = self._event_rows()
+            if event_rows.shape[0]:
+                rows = np.union1d(rows, event_rows)
+            for row in rows:
+                self.members[row].player.after_advance()
         # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
         if st.sample:
             self._sample()
@@ -583,6 +589,14 @@ class _Group:
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
+
+    def _event_rows(self) -> np.ndarray:
+        """Rows of the members playing clips with key events (rebuilt when clips change)."""
+        version = sum(m.player.version for m in self.members)
+        if version != self._events_version:
+            self._events = np.array([row for row, m in enumerate(self.members) if m.player.has_event_clips], np.int64)
+            self._events_version = version
+        return self._events
 
     def _pair_groups(self) -> list:
         """(buffer, first clip, pair count, members with external targets) per bound

@@ -9,6 +9,12 @@ about a microsecond of dispatch instead of one type check per array.
 
 The quaternion and spline helpers are private tuple-valued twins of what engine.mathx
 offers on arrays; the solver keeps its own so its inner loops stay in registers.
+
+Reference counting is off (``_nrt=False``) for every kernel here: nothing allocates and
+every view lives inside the call, while numba's counts on the plan's views (each read of
+``P.field``, each inlined stage taking ``P``) were a third of a solve. Consequence, a
+rule: these kernels call only each other (never a kernel compiled with counting, which
+would count arrays that carry no owner), and never return an array.
 """
 
 from __future__ import annotations
