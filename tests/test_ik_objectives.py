@@ -359,3 +359,10 @@ def test_six_joint_chain_reaches_and_stays_smooth():
     max_step, normals = sweep(c, s, hand, start, end)
     assert max_step < 0.1
     assert_no_flip(normals)
+
+
+@pytest.mark.xfail(strict=True, reason="known: a position-only goal on one foot of a branching leg (random creature 78, "
+                   "leg2_l_a_foot) spins the foot ~5 rad over 3% of reach near 0.58 reach: without a rotation goal "
+                   "or a brace the foot's direction is its free joint particle's, which swings through")
+def test_sweep_branching_leg_foot_known_spin():
+    test_sweep_random_creature_is_smooth.hypothesis.inner_test(78, 1)

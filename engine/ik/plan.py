@@ -57,6 +57,7 @@ class IKParams:
                                   # rest met by stretching (no knee pop); 1 = exact up to full reach
     transport_substeps: int = 2   # minimal-twist steps between spline samples
     straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
+    fork_splay: float = 0.15      # splay hint for planar forks (branching legs), fraction of the fork's segment
     spline_regularization: float = 1e-3
 
     def vector(self) -> np.ndarray:
@@ -579,6 +580,44 @@ def _build(c, goals: list[int], prm: IKParams):
         perp /= np.linalg.norm(perp)
         off = prm.straight_bend * 0.5 * (nu + nv) * perp
         P["init"] = P["local"] + _qrot(_qconj(rr_rot[P["attach"]]), off)
+
+    # Splay hint: a fork (a body with two or more IK children, their branches ending in
+    # joints E) keeps its branch point P on the circle of points at the branches' lengths
+    # from the ends; when the ends come closer to the fork's joint R than at rest (the
+    # hips crouch over planted toes) P must move along that circle, tangent
+    # t = spread x (P - mid E). If R lies in the plane of spread and P - mid E, no
+    # constraint correction has a component along t and the iterations sit in that plane
+    # with every segment compressed. Start the branch joints slightly along t: away from
+    # the sagittal plane (forward for a fork on it), like a knee splaying out.
+    for P in lp:
+        kids = [k for k in P["kids"] if not lp[lp_of[k]].get("tip")]
+        if len(kids) < 2:
+            continue
+        # Only where every branch is held by a goal (a free branch lets P turn freely).
+        if not all(any(h in slot_of for h in range(k, int(c.body_subtree_end[k]))) for k in kids):
+            continue
+        b = P["body"]
+        ends = []
+        for k in kids:
+            gk = [g for g in lp[lp_of[k]]["kids"] if not lp[lp_of[g]].get("tip")]
+            ends.append(rr_joint[gk[0]] if gk else rr_joint[k])
+        fork = np.mean([rr_joint[k] for k in kids], axis=0)
+        t = np.cross(ends[-1] - ends[0], fork - np.mean(ends, axis=0))
+        nt = float(np.linalg.norm(t))
+        seg = float(np.linalg.norm(fork - rr_joint[b]))
+        if nt < 1e-12 or seg < 1e-9:
+            continue
+        t /= nt
+        if abs(float((rr_joint[b] - fork) @ t)) > 0.05 * seg:
+            continue                       # R is off that plane: the corrections already turn P
+        side = float(c.body_side[b])
+        pref = np.array([0.0, side, 0.0]) if side != 0.0 else np.array([1.0, 0.0, 0.0])
+        if float(t @ pref) < 0.0:
+            t = -t
+        off = prm.fork_splay * seg * t
+        for k in kids:
+            Q = lp[lp_of[k]]
+            Q["init"] = Q["init"] + _qrot(_qconj(rr_rot[Q["attach"]]), off)
 
     for P in lp:
         kids = P["kids"]
