@@ -106,13 +106,13 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
     alone = [make(k) for k in range(3)]
     group = engine.Crowd(chars)
     ticks = []
-    for f in range(5 + frames):
+    for _ in range(5 + frames):
         t = time.perf_counter()
         group.tick(DT)
         ticks.append(time.perf_counter() - t)
         for a in alone:
             a.tick(DT)
-    diff = max(float(np.abs(a.world_positions - c.world_positions).max()) for a, c in zip(alone, chars))
+    diff = max(float(np.abs(a.world_positions - c.world_positions).max()) for a, c in zip(alone, chars, strict=True))
     return float(np.median(ticks[5:]) * 1e3 / n), diff
 
 

@@ -12,7 +12,7 @@ from engine.anim._kernels import goals_kernel
 from engine.anim.evaluate import EvalScratch
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
-from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into
+from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into, quat_slerp_t
 
 
 @njit(cache=True)
@@ -207,6 +207,37 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
         jiggle_kernel(body_parent, body_local_rot, body_local_joint, body_joint_offset, jig_lever, jig_omega,
                       jig_zeta, jig_max_err, jig_sleep, driven[c], world_pos[c], world_rot[c], jig_err[c],
                       jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c], dt, simulate)
+
+
+@njit(cache=True)
+def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+    """Standing (the gait stage of a character that does not locomote): every foot of
+    each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
+    animations ask of it: the blended goal is laid over the rest spot by its own weight,
+    and the foot's goal weight becomes 1. So a crouch or a sway bends the legs instead of
+    pushing the feet through the ground, and a clip that lifts a foot (a kick, a jump)
+    still lifts it, fading in and out without a pop."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        if not stand[r]:
+            continue
+        for k in range(feet.shape[0]):
+            f = feet[k]
+            w = min(max(goal_pw[r, f], 0.0), 1.0)
+            for j in range(3):
+                goal_pos[r, f, j] = rest_pos[f, j] + w * (goal_pos[r, f, j] - rest_pos[f, j])
+            goal_pw[r, f] = 1.0
+            wr = min(max(goal_rw[r, f], 0.0), 1.0)
+            if wr <= 0.0:
+                for j in range(4):
+                    goal_rot[r, f, j] = rest_rot[f, j]
+            elif wr < 1.0:
+                q0, q1, q2, q3 = quat_slerp_t(rest_rot[f], goal_rot[r, f], wr)
+                goal_rot[r, f, 0] = q0
+                goal_rot[r, f, 1] = q1
+                goal_rot[r, f, 2] = q2
+                goal_rot[r, f, 3] = q3
+            goal_rw[r, f] = 1.0
 
 
 @njit(cache=True)

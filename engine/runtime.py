@@ -14,7 +14,7 @@ One frame (Hecker et al. 2008, section 4; ``../shared/DESIGN.md``)::
     sample      curves of each playing clip at its time
     specialize  S per bound body                       one kernel per bound variant
     blend       clips by weight, layers bottom to top  one kernel over the stack
-    gait        (the gait stage: until locomotion lands the root follows its channel)
+    gait        locomotion (engine.gait), or standing: feet the clips leave free held on the ground
     ik          two-phase particle IK                  one kernel per IK plan
     jiggle      passive secondary motion               } one kernel over the stack
     output      world placement of every body          }
@@ -132,10 +132,14 @@ class _Stack:
         # Kernels bound to these arrays (engine._fastcall), made on first use.
         self.blend_call = None
         self.output_call = None
+        #: Rows whose feet stand (no locomotion controller): the gait stage holds their feet.
+        self.stand = np.full(n, creature.nleg > 0, np.bool_)
+        self.stand_call = None
+        self.rows = np.arange(n, dtype=np.int64)
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
-                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad")
+                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad", "stand")
 
     def copy_row(self, dst: int, src: _Stack, row: int) -> None:
         for name in self._PER_CHAR:
@@ -274,6 +278,7 @@ class Character:
             from engine.gait import GaitController
 
             self.gait = GaitController(self.creature)
+            self._stack.stand[self._row] = False        # the controller plants the feet now
         return self.gait
 
     # -- playing -----------------------------------------------------------------------
@@ -335,8 +340,11 @@ class Character:
             _sample_character(self)                     # 2-3. sample curves, specialize (S)
         if st.blend:
             _blend_stack(self._stack, self.player)      # 4. blend clips and layers into goals
-        if st.gait and self.gait is not None:
-            _gait_character(self, dt)                   # 5. gait: feet, hips, root motion
+        if st.gait:
+            if self.gait is not None:
+                _gait_character(self, dt)               # 5. gait: feet, hips, root motion
+            else:
+                _stand_rows(self._stack, _ROW[self._row])   # ... or standing: feet held on the ground
         _solve_character(self)                          # 6. IK (or the rest pose when off)
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
@@ -411,6 +419,16 @@ def _gait_character(char: Character, dt: float) -> None:
                    s.goal_pw[r], s.goal_rw[r])
 
 
+def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
+    """Standing feet for the stack rows ``rows`` that have no locomotion controller."""
+    call = s.stand_call
+    if call is None or call.args[0] is not rows:
+        c = s.creature
+        call = s.stand_call = BoundKernel(RK.stand_feet, (rows, s.stand, c.leg_foot, c.body_rest_pos, c.body_rest_rot,
+                                                          s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw))
+    call.call()
+
+
 def _update_plan(char: Character) -> None:
     """The IK plan for the bodies the playing clips pose (rebuilt only when what plays
     changes; plans themselves are cached per creature and goal set)."""
@@ -423,6 +441,8 @@ def _update_plan(char: Character) -> None:
             goal_bodies.update(int(b) for b in h.payload.bound.goal_bodies)
     if char.gait is not None:
         goal_bodies.update(int(b) for b in char.gait.goal_bodies)
+    else:
+        goal_bodies.update(int(b) for b in char.creature.leg_foot)     # standing feet
     goal_bodies.discard(0)
     plan = plan_for(char.creature, sorted(goal_bodies), char.ik_params)
     if plan is not char._plan:
@@ -579,11 +599,13 @@ class _Group:
         # 4. blend: one kernel over the stack
         if st.blend:
             _blend_stack(s, ref.player)
-        # 5. gait: per member that locomotes (the controllers keep per-character state)
+        # 5. gait: per member that locomotes (the controllers keep per-character state);
+        #    the others stand, one kernel over the stack
         if st.gait:
             for m in self.members:
                 if m.gait is not None:
                     _gait_character(m, dt)
+            _stand_rows(s, s.rows)
         # 6. IK: one kernel per IK plan over the members using it
         self._solve(st.ik)
         # 7-8. jiggle and world output: one kernel over the stack

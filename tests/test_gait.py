@@ -238,7 +238,7 @@ def test_inchworm_pseudo_feet_and_crawl():
     # pseudo-feet at least two bodies apart and two away from the root (neighbours share a
     # joint and cannot move apart)
     assert rig.mode == "crawl" and len(idx) >= 2
-    assert all(b - a >= 2 for a, b in zip(idx, idx[1:]))
+    assert all(b - a >= 2 for a, b in zip(idx, idx[1:], strict=False))
     assert all(abs(i - spine.index(0)) >= 2 for i in idx)
     m = run_scenario(c, seconds=3.0, terrain=True, commands=lambda t, L: (0.6 * L, 0.0, 0.1))
     assert m["finite"] and m["stances"] >= 3

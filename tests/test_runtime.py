@@ -10,6 +10,7 @@ import pytest
 
 import engine
 from engine.anim import load_animation
+from engine.anim.fileio import animation_from_text
 from engine.runtime import Character, Crowd
 
 DT = 1 / 60
@@ -36,7 +37,17 @@ def test_rest_without_animation_is_the_rest_pose(human):
     # Heading +90 degrees: rest x becomes world y, rest y becomes world -x.
     rest = human.body_rest_pos
     expected = np.stack([2.0 - rest[:, 1], 1.0 + rest[:, 0], rest[:, 2]], axis=1)
-    assert np.allclose(ch.world_positions, expected, atol=1e-9)
+    # Standing: the feet are held at their rest spots by the IK, which eases the nearly
+    # straight rest knees a little (soft reach); everything else is the rest pose exactly.
+    legs = np.zeros(human.nbody, bool)
+    for k in range(human.nleg):
+        a, n = human.leg_body_adr[k], human.leg_body_num[k]
+        legs[human.leg_bodies[a:a + n]] = True
+    legs[0] = False
+    feet = human.leg_foot
+    assert np.allclose(ch.world_positions[~legs], expected[~legs], atol=1e-9)
+    assert np.allclose(ch.world_positions[feet], expected[feet], atol=1e-6)
+    assert np.all(np.linalg.norm(ch.world_positions[legs] - expected[legs], axis=1) < 0.02 * human.height)
 
 
 def test_wave_moves_the_hand_and_only_what_it_should(human, wave):
@@ -132,6 +143,7 @@ def test_crowd_matches_characters_alone(human, wave):
 
 def test_skinning_matrices_are_identity_at_rest(human):
     ch = Character(human)
+    ch.stages.gait = False          # no standing IK on the legs: the exact rest pose
     ch.tick(DT)
     m = ch.skinning_matrices()
     assert m.shape == (human.nbody, 4, 4)
@@ -182,3 +194,43 @@ def test_every_animation_every_variant_on_a_few_creatures(path):
             for _ in range(int(anim.length / 0.1) + 1):
                 ch.tick(0.1)
                 assert np.all(np.isfinite(ch.world_positions)), (name, v)
+
+
+def test_standing_feet_stay_on_the_ground_while_the_body_moves(human):
+    """Without locomotion the gait stage holds the feet no clip drives at their rest spots:
+    a crouch of the root alone (no foot channel) bends the knees instead of pushing the
+    feet through the ground; with the gait stage off the feet sink with the root."""
+    anim = animation_from_text(CROUCH_ROOT_ONLY)
+    feet = human.leg_foot
+    lowest = {}
+    for gait_on in (True, False):
+        ch = Character(human)
+        ch.stages.gait = gait_on
+        ch.play(anim, fade=0.0, loop=False)
+        low = np.inf
+        for k in range(45):
+            ch.tick(DT)
+            low = min(low, float(ch.world_positions[feet, 2].min()))
+            assert np.all(np.isfinite(ch.world_positions))
+            if gait_on:
+                assert np.allclose(ch.world_positions[feet], human.body_rest_pos[feet], atol=1e-6), k
+        lowest[gait_on] = low
+        assert ch.world_positions[0, 2] < human.body_rest_pos[0, 2] - 0.15     # the root did crouch
+    rest_low = float(human.body_rest_pos[feet, 2].min())
+    assert lowest[True] >= rest_low - 1e-6
+    assert lowest[False] < rest_low - 0.1
+
+
+CROUCH_ROOT_ONLY = """\
+format: 1
+name: crouch_root_only
+length: 1.0
+channels:
+  - name: root
+    select: {type: root}
+    position: {mode: rest, ground: true}
+    keys:
+      position:
+        - {t: 0.0, v: [0, 0, 0.3]}
+        - {t: 1.0, v: [0, 0, 0.3]}
+"""

@@ -284,7 +284,7 @@ class GaitController:
                 # sweep far along the body and hardly across it
                 for axis in range(2):
                     d = 0.5 * r.group_length[g]
-                    def passes(d: float) -> bool:
+                    def passes(d: float, axis=axis, lift=lift, drop=drop, bob=bob, g=g, base=base) -> bool:
                         e = 1.25 * d                       # a margin for bob, lean, tilt and turning
                         stretch_seen[0] = 0.0
                         # same way, alternating with every other stepper lifted, alternating all planted
