@@ -514,3 +514,45 @@ def test_knees_fold_the_way_they_bend_at_rest(human):
         knee = pos[shin] - quat_rotate(rot[shin], human.body_joint_offset[shin])
         assert knee[0] > rest_knee[0], dz
         assert np.linalg.norm(pos[foot] - s.goals.goal_pos[foot]) < 2e-3
+
+
+@pytest.mark.parametrize("splay", [IKParams().fork_splay, 0.0])
+def test_branching_legs_meet_planted_toes_when_the_hips_crouch(splay):
+    """Branching legs (a fork whose branches each end in a planted toe): with the hips
+    crouched 4-12% of the leg over toes held at their rest spots, every toe is met
+    exactly. Without the splay hint the fork point stays in the plane of its joint and
+    toes, every segment compressed, and toes are missed (the second case, which must
+    fail somewhere, shows the test can fail)."""
+    from engine.model import build_creature
+    from engine.model.random import random_creature_def
+
+    worst = 0.0
+    tested = 0
+    for seed in range(60):
+        c = build_creature(random_creature_def(seed))
+        roots: dict[int, int] = {}
+        for f in c.leg_foot:
+            r = int(c.limb_root[c.body_limb[f]])
+            roots[r] = roots.get(r, 0) + 1
+        if max(roots.values(), default=0) < 2:
+            continue
+        tested += 1
+        feet = [int(f) for f in c.leg_foot]
+        plan = plan_for(c, feet, IKParams(fork_splay=splay))
+        scratch = plan.make_scratch()
+        goals = IKGoals(c.nbody)
+        out_p, out_r = np.zeros((c.nbody, 3)), np.zeros((c.nbody, 4))
+        L = float(np.max(c.leg_length))
+        for drop in (0.04, 0.08, 0.12):
+            goals.clear()
+            for f in feet:
+                goals.set(f, c.body_rest_pos[f], c.body_rest_rot[f], 1.0, 1.0)
+            root = c.body_rest_pos[0] - np.array([0.0, 0.0, drop * L])
+            solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
+            assert np.all(np.isfinite(out_p))
+            worst = max(worst, float(np.max(np.linalg.norm(out_p[feet] - c.body_rest_pos[feet], axis=1))) / L)
+    assert tested >= 8
+    if splay > 0:
+        assert worst < 1e-6, worst
+    else:
+        assert worst > 1e-3, worst
