@@ -35,17 +35,24 @@ def _kernel_sources() -> list[str]:
 
 
 def _cache_dirs(sources: list[str]) -> list[str]:
-    dirs = {os.path.join(os.path.dirname(p), "__pycache__") for p in sources}
+    """Where numba keeps this process's cached kernels: under ``NUMBA_CACHE_DIR`` when it
+    is set (then, and only then: the ``__pycache__`` beside the sources belongs to the
+    processes without it, and is not ours to drop), else beside each source."""
     cache_dir = os.environ.get("NUMBA_CACHE_DIR")
     if cache_dir:
         try:
             from numba.core.caching import UserProvidedCacheLocator
 
-            for p in sources:
-                dirs.add(os.path.join(cache_dir, UserProvidedCacheLocator.get_suitable_cache_subpath(p)))
+            return sorted({os.path.join(cache_dir, UserProvidedCacheLocator.get_suitable_cache_subpath(p))
+                           for p in sources})
         except Exception:
-            pass
-    return sorted(dirs)
+            return [cache_dir]
+    return sorted({os.path.join(os.path.dirname(p), "__pycache__") for p in sources})
+
+
+#: Settings that change the machine code numba writes but not its cache key: a run with
+#: bounds checks must not leave checked kernels for the next run, nor load unchecked ones.
+_CODEGEN_ENV = ("NUMBA_BOUNDSCHECK", "NUMBA_OPT", "NUMBA_FASTMATH", "NUMBA_DEBUGINFO")
 
 
 def refresh_stale_kernel_cache() -> bool:
@@ -57,6 +64,8 @@ def refresh_stale_kernel_cache() -> bool:
             with open(p, "rb") as f:
                 digest.update(os.path.relpath(p, _ROOT).encode())
                 digest.update(f.read())
+        for name in _CODEGEN_ENV:
+            digest.update(f"{name}={os.environ.get(name, '')}".encode())
         stamp = digest.hexdigest()
         dirs = _cache_dirs(sources)
         stamp_dir = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(_ROOT, "engine", "__pycache__")

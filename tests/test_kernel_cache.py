@@ -24,3 +24,23 @@ def test_stale_cache_is_dropped_when_a_kernel_source_changes(tmp_path, monkeypat
     assert _cache.refresh_stale_kernel_cache() is True
     assert not os.path.exists(fake)
     assert _cache.refresh_stale_kernel_cache() is False
+
+
+def test_a_private_cache_dir_leaves_the_shared_cache_alone(tmp_path, monkeypatch):
+    """With NUMBA_CACHE_DIR set, only that directory's kernels are ours to drop."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    sources = _cache._kernel_sources()
+    dirs = _cache._cache_dirs(sources)
+    assert dirs and all(d.startswith(str(tmp_path)) for d in dirs)
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    assert all(d.endswith("__pycache__") and not d.startswith(str(tmp_path)) for d in _cache._cache_dirs(sources))
+
+
+def test_bounds_checking_changes_the_stamp(tmp_path, monkeypatch):
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("NUMBA_BOUNDSCHECK", raising=False)
+    _cache.refresh_stale_kernel_cache()
+    assert _cache.refresh_stale_kernel_cache() is False
+    monkeypatch.setenv("NUMBA_BOUNDSCHECK", "1")
+    assert _cache.refresh_stale_kernel_cache() is True           # checked kernels are other kernels
+    assert _cache.refresh_stale_kernel_cache() is False
