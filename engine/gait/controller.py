@@ -48,6 +48,10 @@ CROUCH_SWEEP_SHARE = 0.7
 #: constant part, so on uneven ground the output may sink by about that much; twice it keeps
 #: every foot above the ground and costs the touchdown error under a millimetre.
 CAL_TOL = 3e-4
+# phases of the inch-worm wave a crawler's forward sweep is calibrated at (``_calibrate``)
+CRAWL_CAL_PHASES = 12
+# neighbouring pseudo-feet of a crawler lift this share of the shortest flight apart
+CRAWL_WAVE_SHARE = 0.5
 GROUND_CLEARANCE = 2.0 * CAL_TOL
 #: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
 #: legs stand (``GaitController.immobile``).
@@ -254,6 +258,54 @@ class GaitController:
             d = np.linalg.norm(miss - base, axis=1)
             return float(np.max(d[counted])) if np.any(counted) else 0.0
 
+        def crawl_passes(e: float, lift: float, base) -> bool:
+            """A crawler's forward half-sweep ``e`` (m) passes when the stances its inch-worm
+            wave really produces are met (section 4.2: pseudo-feet step in a wave along the
+            body). The walking test above moves every other pseudo-foot the opposite way, a
+            stance the wave never makes: it asks the spine between neighbouring pseudo-feet to
+            stretch or shrink by 2e and held crawlers to 1-4% of their spacing per stance. Here
+            each pseudo-foot goes from +e to -e (body frame) during its stance and back,
+            lifted, during its flight, started at its own trigger; phases across the whole
+            cycle, with the body moving forward and backward (a wave read the other way), at
+            the shortest and longest duty factor the styles ask for, and all feet displaced
+            together (the root ahead of or behind every pseudo-foot)."""
+            trig = self.step_trigger[r.foot_stepper]
+            dsc = self.step_duty_scale[r.foot_stepper]
+            duties = [float(np.min(st.table[:, 2])) for layers in self._layers for st, _ in layers]
+            duties += [float(np.max(st.table[:, 2])) for layers in self._layers for st, _ in layers]
+            allf = list(range(r.nfoot))
+            for sign in (1.0, -1.0):
+                if deviation(*miss_of(0.0, 0.0, allf, sign * e, 0.0), base) > tol:
+                    return False
+            for duty in sorted(set(duties)):
+                for sign in (1.0, -1.0):
+                    for t in np.arange(CRAWL_CAL_PHASES) / CRAWL_CAL_PHASES:
+                        goals_dx = np.zeros(r.nfoot)
+                        goals_dz = np.zeros(r.nfoot)
+                        for f in range(r.nfoot):
+                            du = min(max(duty * float(dsc[f]), 0.05), 0.95)
+                            ph = (t - float(trig[f])) % 1.0
+                            if ph < du:
+                                goals_dx[f] = e * (1.0 - 2.0 * ph / du)
+                            else:
+                                q = (ph - du) / (1.0 - du)
+                                goals_dx[f] = e * (2.0 * q - 1.0)
+                                goals_dz[f] = lift * math.sin(math.pi * q)
+                        if deviation(*crawl_miss(sign * goals_dx, goals_dz), base) > tol:
+                            return False
+            return True
+
+        def crawl_miss(dx, dz):
+            """(miss, counted) with each pseudo-foot displaced by its own dx (forward) and dz."""
+            goals.clear()
+            for f in range(r.nfoot):
+                p = r.foot_neutral[f].copy()
+                p[0] += dx[f]
+                p[2] += dz[f]
+                goals.set(int(fb[f]), p, r.foot_rest_rot[f], 1.0, 1.0)
+            solve_ik(plan, c.body_rest_pos[0], c.body_rest_rot[0], goals, out_p, out_r, scratch)
+            return out_p[fb] - goals.goal_pos[fb], np.ones(r.nfoot, bool)
+
         # the largest hip bob the layered styles ask for (leg lengths of the longest group)
         bob_margin = max(float(np.max(st.table[:, 4])) for layers in self._layers for st, _ in layers) * float(
             np.max(r.group_length)) if r.mode == "walk" else 0.0
@@ -287,6 +339,8 @@ class GaitController:
                     def passes(d: float, axis=axis, lift=lift, drop=drop, bob=bob, g=g, base=base) -> bool:
                         e = 1.25 * d                       # a margin for bob, lean, tilt and turning
                         stretch_seen[0] = 0.0
+                        if r.mode == "crawl" and axis == 0:
+                            return crawl_passes(e, lift, base)
                         # same way, alternating with every other stepper lifted, alternating all planted
                         for sign in (1.0, -1.0):
                             dx, dy = (sign * e, 0.0) if axis == 0 else (0.0, sign * e)
@@ -433,9 +487,14 @@ class GaitController:
                 dsc = dsc + w * (d2 - dsc)
                 lsc = lsc + w * (l2 - lsc)
             if r.mode == "crawl":
-                # inch-worm: a wave from the front to the back along the body
-                n = len(steps)
-                trig = (0.55 * rank / max(n - 1, 1)) % 1.0
+                # inch-worm: a wave from the front to the back along the body. Neighbours
+                # lift CRAWL_WAVE_SHARE of the shortest flight apart: a spine of rigid bodies
+                # bends but cannot stretch, so the spacing of two pseudo-feet may change
+                # only while one of them flies; the closer in time they lift, the less it
+                # changes for the same stride (spreading the wave over 0.55 of the cycle
+                # held two-foot crawlers to 1-4% of their spacing per stance)
+                duty = max(float(np.max(st.table[:, 2])) for st, _ in layers)
+                trig = (CRAWL_WAVE_SHARE * (1.0 - duty) * rank) % 1.0
             elif len(steps) > 2 and np.all(r.foot_rigid[r.step_foot_adr[steps]] == 1):
                 # knee-less legs: the hips ride at one leg length over the planted feet, so
                 # every planted foot must sit as far from its hip as the others; only two
