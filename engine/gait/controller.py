@@ -50,8 +50,6 @@ CROUCH_SWEEP_SHARE = 0.7
 CAL_TOL = 3e-4
 # phases of the inch-worm wave a crawler's forward sweep is calibrated at (``_calibrate``)
 CRAWL_CAL_PHASES = 12
-# neighbouring pseudo-feet of a crawler lift this share of the shortest flight apart
-CRAWL_WAVE_SHARE = 0.5
 GROUND_CLEARANCE = 2.0 * CAL_TOL
 #: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
 #: legs stand (``GaitController.immobile``).
@@ -487,14 +485,16 @@ class GaitController:
                 dsc = dsc + w * (d2 - dsc)
                 lsc = lsc + w * (l2 - lsc)
             if r.mode == "crawl":
-                # inch-worm: a wave from the front to the back along the body. Neighbours
-                # lift CRAWL_WAVE_SHARE of the shortest flight apart: a spine of rigid bodies
-                # bends but cannot stretch, so the spacing of two pseudo-feet may change
-                # only while one of them flies; the closer in time they lift, the less it
-                # changes for the same stride (spreading the wave over 0.55 of the cycle
-                # held two-foot crawlers to 1-4% of their spacing per stance)
+                # inch-worm: a wave from the front to the back along the body, as tight as
+                # it can be while one pseudo-foot always holds the ground: neighbours lift
+                # 1/(n-1) of the shortest flight apart, so the last lifts as the first lands.
+                # A spine of rigid bodies bends but cannot stretch, so the spacing of two
+                # pseudo-feet changes only while one of them flies; the closer in time they
+                # lift, the less it changes for the same stride (spreading the wave over
+                # 0.55 of the cycle held crawlers to 1-4% of their spacing per stance)
+                n = len(steps)
                 duty = max(float(np.max(st.table[:, 2])) for st, _ in layers)
-                trig = (CRAWL_WAVE_SHARE * (1.0 - duty) * rank) % 1.0
+                trig = ((1.0 - duty) * rank / max(n - 1, 1)) % 1.0
             elif len(steps) > 2 and np.all(r.foot_rigid[r.step_foot_adr[steps]] == 1):
                 # knee-less legs: the hips ride at one leg length over the planted feet, so
                 # every planted foot must sit as far from its hip as the others; only two
