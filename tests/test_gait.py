@@ -413,3 +413,51 @@ def test_crowd_members_walk_as_alone(dog):
         alone.tick(1 / 60)
     assert np.allclose(chars[0].world_positions, alone.world_positions, atol=1e-12)
     assert chars[2].position[0] > 0.1
+
+
+def _spine_length(c) -> float:
+    j = c.body_joint[c.spine_chain]
+    return float(np.sum(np.linalg.norm(np.diff(j, axis=0), axis=1)))
+
+
+@pytest.mark.parametrize("name, body_lengths, leg_lengths", [
+    # the inch-worm covered 1.4 of its spine lengths (2.75 pseudo-foot spacings) when its
+    # sweep was calibrated on the walkers' every-other-foot-opposite stances and its two
+    # pseudo-feet lifted 0.55 of the cycle apart; now 2.5
+    ("inchworm", 2.0, 4.0),
+    # four pseudo-feet: 0.5 spacings before (immobile), 1.44 now
+    ("random43", 0.0, 1.2),
+    # one pseudo-foot: its spine covers itself (1.44 spine lengths)
+    ("random25", 1.0, 1.0),
+])
+def test_crawlers_travel_with_planted_pseudo_feet(name, body_lengths, leg_lengths):
+    """A crawler's calibrated sweep is the one its inch-worm wave really uses, so it
+    covers ground in the full benchmark scenario (flat ground) with pseudo-feet that do
+    not slide."""
+    c = (engine.load_creature(f"creatures/{name}.yaml") if not name.startswith("random")
+         else build_creature(random_creature_def(int(name[6:]))))
+    rig = analyze(c)
+    assert rig.mode == "crawl"
+    m = run_scenario(c, seconds=8.0, terrain=False)
+    assert m["finite"] and m["stances"] >= 10, m
+    assert m["stance_slide_mm"] <= 1.0, m
+    travel_m = m["travel"] * float(rig.group_length[0])
+    assert m["travel"] >= leg_lengths, m
+    assert travel_m >= body_lengths * _spine_length(c), (travel_m, _spine_length(c))
+
+
+def test_crawl_wave_keeps_a_pseudo_foot_planted():
+    """Neighbouring pseudo-feet lift 1/(n-1) of the shortest flight apart: at every phase of
+    the cycle at least one pseudo-foot is on the ground (the spine cannot stretch, so the
+    wave is as tight as it can be without leaving the crawler with no anchor)."""
+    c = engine.load_creature("creatures/snake.yaml")
+    g = GaitController(c)
+    r = g.rig
+    assert r.mode == "crawl" and r.nfoot >= 3
+    trig = g.step_trigger[r.foot_stepper]
+    duty = max(float(np.max(st.table[:, 2])) for st, _ in g._layers[0])
+    flight = 1.0 - duty
+    assert np.isclose(np.ptp(trig), flight, atol=1e-9)
+    for t in np.linspace(0.0, 1.0, 200, endpoint=False):
+        # a pseudo-foot is in stance for the first ``duty`` of its cycle from its trigger
+        assert np.any((t - trig) % 1.0 < duty), t
