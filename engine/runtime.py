@@ -84,7 +84,7 @@ class _Clip:
             c = char.creature
             bv = self.bound
             hit = BoundKernel(RK.goals_pairs, (self.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
-                                               self.table, char._slot_time[slot], _ROW[r], _ROW[slot],
+                                               self.table, char._slot_time[slot], _row(r), _row(slot),
                                                c.body_rest_pos, c.body_rest_rot, self.scratch, s.sg_pos, s.sg_rot,
                                                s.sg_pw, s.sg_rw, self.n_ext, s.char_pos))
             self.calls = {key: hit}   # a clip plays in one place at a time
@@ -129,6 +129,9 @@ class _Stack:
         self.lay_rot = np.zeros((nb, 4))
         self.lay_pw = np.zeros(nb)
         self.lay_rw = np.zeros(nb)
+        # jiggle scratch (the rigid chain pose), one set reused across characters
+        self.jig_chain_joint = np.zeros((nb, 3))
+        self.jig_chain_rot = np.zeros((nb, 4))
         # Kernels bound to these arrays (engine._fastcall), made on first use.
         self.blend_call = None
         self.output_call = None
@@ -344,7 +347,7 @@ class Character:
             if self.gait is not None:
                 _gait_character(self, dt)               # 5. gait: feet, hips, root motion
             else:
-                _stand_rows(self._stack, _ROW[self._row])   # ... or standing: feet held on the ground
+                _stand_rows(self._stack, _row(self._row))   # ... or standing: feet held on the ground
         _solve_character(self)                          # 6. IK (or the rest pose when off)
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
@@ -462,7 +465,7 @@ def _solve_character(char: Character) -> None:
         if call is None or call.args[0] is not char._plan.blobs[0] or call.args[5] is not s.root_pos:
             b = char._plan.blobs
             call = char._solve_call = BoundKernel(RK.solve_indexed, (
-                b[0], b[1], b[2], b[3], _ROW[r], s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw,
+                b[0], b[1], b[2], b[3], _row(r), s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw,
                 s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad))
         call.call()
         if s.ik_bad[r] != -1:
@@ -490,14 +493,23 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
         s.output_call = BoundKernel(RK.output_and_jiggle, (
             s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot, c.body_parent,
             c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever, rig.omega, rig.zeta, rig.max_err,
-            rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active, 1.0 / 60.0, True),
-            slots=(21, 22))
+            rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active, s.jig_chain_joint,
+            s.jig_chain_rot, 1.0 / 60.0, True),
+            slots=(23, 24))
     s.output_call.call(float(dt), bool(simulate))
 
 
 #: Index arrays of one element, made once (row k of a stack), so the per-frame path
 #: does not build arrays.
 _ROW = [np.array([k], np.int64) for k in range(64)]
+
+
+def _row(k: int) -> np.ndarray:
+    """The one-element index array of row ``k`` (made once per row: a member of a crowd of
+    thousands can be ticked alone too)."""
+    while k >= len(_ROW):
+        _ROW.append(np.array([len(_ROW)], np.int64))
+    return _ROW[k]
 
 
 def _qmul(a, b):

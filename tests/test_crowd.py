@@ -148,3 +148,16 @@ def test_borrowed_views_share_memory():
     a = np.zeros((3, 4))
     assert write_through(a, (1.0, 5.0)) == 7.0
     assert a[1, 2] == 7.0 and a[0, 0] == 5.0
+
+
+def test_a_member_far_down_a_big_crowd_can_be_ticked_alone(human, wave):
+    """Row indices past the first 64 (the runtime's one-element index arrays grow)."""
+    def setup(k, ch):
+        ch.play(wave, variant=k % 2)
+
+    alone, members, crowd = _pair(human, 70, setup)
+    crowd.tick(DT)
+    alone[69].tick(DT)
+    members[69].tick(DT)            # alone, though it lives in row 69 of the crowd's stack
+    alone[69].tick(DT)
+    assert np.allclose(members[69].world_positions, alone[69].world_positions, atol=1e-12)

@@ -306,10 +306,11 @@ def _foot_rel_rot(rel_yaw, foot_tilt, pitch):
 
 
 @njit(cache=True, inline="always")
-def _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos, cy, sy, yaw,
-                pitch, root_pos, root_rot):
-    """How far the root must rise (m, negative: sink) for a rigid leg's hip to sit exactly
-    one leg length above its foot's joint (the foot as its goal rotation leaves it)."""
+def _compass_leg(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos, cy, sy, yaw,
+                 pitch, root_pos, root_rot):
+    """A rigid leg in the character frame: its foot's joint (x, y, z, the foot as its goal
+    rotation leaves it), its hip's height, and how far above the joint the hip sits when
+    the leg, one chain length long, reaches from the joint's horizontal spot to the hip's."""
     rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch)
     ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
     dx = foot_world[f, 0] - place_pos[0]
@@ -319,6 +320,16 @@ def _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_
     jz = foot_world[f, 2] - place_pos[2] + oz
     hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
     need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+    return jz, oz, hz, need
+
+
+@njit(cache=True, inline="always")
+def _compass_dz(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f, place_pos, cy, sy, yaw,
+                pitch, root_pos, root_rot):
+    """How far the root must rise (m, negative: sink) for a rigid leg's hip to sit exactly
+    one leg length above its foot's joint (the foot as its goal rotation leaves it)."""
+    jz, _, hz, need = _compass_leg(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f,
+                                   place_pos, cy, sy, yaw, pitch, root_pos, root_rot)
     return jz + need - hz
 
 
@@ -327,14 +338,8 @@ def _compass_gap(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot
                  place_pos, cy, sy, yaw, pitch, root_pos, root_rot):
     """How far (m) the lowest point of a swinging rigid leg's sphere (at the foot's present
     horizontal spot) is above the ground ``ground_z`` (world), as the foot's contact point."""
-    rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch)
-    ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
-    dx = foot_world[f, 0] - place_pos[0]
-    dy = foot_world[f, 1] - place_pos[1]
-    jx = cy * dx + sy * dy + ox
-    jy = -sy * dx + cy * dy + oy
-    hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
-    need = math.sqrt(max(foot_chain[f] ** 2 - (hx - jx) ** 2 - (hy - jy) ** 2, 0.0))
+    _, oz, hz, need = _compass_leg(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot_tilt, f,
+                                   place_pos, cy, sy, yaw, pitch, root_pos, root_rot)
     return (hz - need) - (ground_z - place_pos[2] + foot_offset[f] + oz)
 
 

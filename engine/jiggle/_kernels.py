@@ -60,6 +60,8 @@ def jiggle_kernel(
     state_target,       # (n, 3) last rigid target tip
     state_target_vel,   # (n, 3) last rigid target tip velocity
     state_active,       # (n,) bool: simulated last frame
+    chain_joint,        # (n, 3) scratch: rigid-chain joint position of each passive body
+    chain_rot,          # (n, 4) scratch: rigid-chain rotation of each passive body
     dt,                 # step, s (> 0)
     simulate,           # False: rigid follow only (the stage switched off)
 ):
@@ -73,10 +75,9 @@ def jiggle_kernel(
     final_rot = np.empty(4)
     offset = np.empty(3)
     tmp = np.empty(3)
-    # Rigid chain pose of every passive body: joint position and rotation it would have at
-    # its rest offsets below its driven ancestor (bodies are ordered parents first).
-    chain_joint = np.empty((n, 3))
-    chain_rot = np.empty((n, 4))
+    # Rigid chain pose of every passive body (into the scratch ``chain_*``): joint position
+    # and rotation it would have at its rest offsets below its driven ancestor (bodies are
+    # ordered parents first).
     chain_origin = np.empty(3)
     for i in range(n):
         if driven[i]:

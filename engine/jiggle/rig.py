@@ -152,6 +152,8 @@ class JiggleState:
         self.target = np.zeros((nbody, 3))
         self.target_vel = np.zeros((nbody, 3))
         self.active = np.zeros(nbody, np.bool_)
+        self.chain_joint = np.zeros((nbody, 3))     # kernel scratch (no state)
+        self.chain_rot = np.zeros((nbody, 4))
 
     def reset(self) -> None:
         """Forget all motion (e.g. after a teleport): passive bodies restart at rest."""
@@ -180,5 +182,5 @@ def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_po
     c = rig.creature
     jiggle_kernel(c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset,
                   rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, driven, world_pos, world_rot,
-                  state.err, state.err_vel, state.target, state.target_vel, state.active, float(dt),
-                  bool(simulate))
+                  state.err, state.err_vel, state.target, state.target_vel, state.active, state.chain_joint,
+                  state.chain_rot, float(dt), bool(simulate))
