@@ -47,6 +47,15 @@ def _terrain_grid(height, center, half: float, n: int = 13, lift: float = 0.0):
     return lines
 
 
+def _contact(ch, rig, f: int) -> np.ndarray:
+    """Where foot f touches the ground (world): its rest contact point carried by its pose."""
+    from engine.mathx.quat import quat_conj, quat_mul, quat_rotate
+
+    b = int(rig.foot_body[f])
+    q = quat_mul(ch.world_rotations[b], quat_conj(rig.foot_rest_rot[f]))
+    return ch.world_positions[b] + quat_rotate(q, rig.foot_contact[f])
+
+
 def walk_one(name: str, style, seconds: float, dt: float = 1.0 / 60.0):
     """Walk one library creature along an S-curve on rolling ground; returns the
     character, the terrain, the root trail (k, 3) and footprints (m, 3)."""
@@ -82,7 +91,7 @@ def walk_one(name: str, style, seconds: float, dt: float = 1.0 / 60.0):
         landed = (g.step_state == 0) & (prev_state != 0)
         for st in np.flatnonzero(landed):
             for f in range(rig.step_foot_adr[st], rig.step_foot_adr[st] + rig.step_foot_num[st]):
-                prints.append(ch.world_positions[rig.foot_body[f]].copy())
+                prints.append(_contact(ch, rig, f))
         prev_state[:] = g.step_state
     return ch, height, np.array(trail), np.array(prints).reshape(-1, 3), L
 

@@ -297,6 +297,14 @@ def _qrot(w, x, y, z, vx, vy, vz):
 
 
 @njit(cache=True, inline="always")
+def _pitch_roll(pitch, roll):
+    """Quaternion of a rotation by ``pitch`` about +y after ``roll`` about +x."""
+    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    return cp * cr, cp * sr, sp * cr, -sp * sr
+
+
+@njit(cache=True, inline="always")
 def _foot_rel_rot(rel_yaw, foot_tilt, pitch):
     """A foot goal's rotation relative to its rest rotation (character space): yaw about
     z, the slope tilt, the flight pitch about the left axis (as the goals are written)."""
@@ -311,7 +319,7 @@ def _compass_leg(foot_world, foot_jointrel, foot_yaw, foot_hip, foot_chain, foot
     """A rigid leg in the character frame: its foot's joint (x, y, z, the foot as its goal
     rotation leaves it), its hip's height, and how far above the joint the hip sits when
     the leg, one chain length long, reaches from the joint's horizontal spot to the hip's."""
-    rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch)
+    rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt[f], pitch)
     ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
     dx = foot_world[f, 0] - place_pos[0]
     dy = foot_world[f, 1] - place_pos[1]
@@ -390,10 +398,83 @@ def _compass_hips(step_group, step_state, step_foot_adr, step_foot_num, step_pro
 
 
 @njit(cache=True)
+def pivot_goal(gp, gq, rest_q, hip, knee, contact):
+    """Turn a pivot foot's goal about its contact point so the foot joint sits on the
+    sphere of the leg's rigid segment around the hip: the foot joint is the leg's knee (see
+    ``engine.gait.rig``).
+
+    gp (3,), gq (4,)   the foot goal's position and rotation, character space (in/out)
+    rest_q (4,)        the foot's rest rotation
+    hip (3,)           the hip joint where the goal's pose will be met, character space
+    knee (4,)          the rig's ``foot_knee`` row: rest foot joint - rest origin, segment length
+    contact (3,)       the rig's ``foot_contact`` row: rest contact point - rest origin
+
+    Of the circle of joint spots that fit both the segment and the foot, the one nearest
+    where the goal put the joint wins, so the knee keeps its side and moves smoothly. A hip
+    too far from (or too near to) the contact point for both lengths gets the straightest
+    (most folded) leg along the hip-contact line; the IK then misses, as with any leg
+    asked past its reach."""
+    # the goal's rotation relative to rest carries the rest offsets
+    rw, rx, ry, rz = _qmul(gq[0], gq[1], gq[2], gq[3], rest_q[0], -rest_q[1], -rest_q[2], -rest_q[3])
+    cx, cy, cz = _qrot(rw, rx, ry, rz, contact[0], contact[1], contact[2])
+    kx, ky, kz = _qrot(rw, rx, ry, rz, knee[0], knee[1], knee[2])
+    cx += gp[0]
+    cy += gp[1]
+    cz += gp[2]
+    kx += gp[0]
+    ky += gp[1]
+    kz += gp[2]
+    seg = knee[3]
+    foot = math.sqrt((knee[0] - contact[0]) ** 2 + (knee[1] - contact[1]) ** 2 + (knee[2] - contact[2]) ** 2)
+    dx, dy, dz = hip[0] - cx, hip[1] - cy, hip[2] - cz
+    dn = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if dn < 1e-9 or seg <= 0.0 or foot <= 0.0:
+        return
+    ux, uy, uz = dx / dn, dy / dn, dz / dn
+    # the circle: centre at distance a from the contact point along u, radius rad
+    a = (foot * foot - seg * seg + dn * dn) / (2.0 * dn)
+    a = min(max(a, -foot), foot)
+    rad = math.sqrt(max(foot * foot - a * a, 0.0))
+    mx, my, mz = cx + a * ux, cy + a * uy, cz + a * uz
+    wx, wy, wz = kx - mx, ky - my, kz - mz
+    wu = wx * ux + wy * uy + wz * uz
+    wx -= wu * ux
+    wy -= wu * uy
+    wz -= wu * uz
+    wn = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if wn < 1e-12:
+        return                                  # the joint lies on the hip-contact line: no side to keep
+    nx, ny, nz = mx + rad * wx / wn, my + rad * wy / wn, mz + rad * wz / wn
+    # the shortest rotation taking (joint - contact) to (new joint - contact)
+    ax, ay, az = kx - cx, ky - cy, kz - cz
+    bx, by, bz = nx - cx, ny - cy, nz - cz
+    an = math.sqrt(ax * ax + ay * ay + az * az)
+    bn = math.sqrt(bx * bx + by * by + bz * bz)
+    if an < 1e-12 or bn < 1e-12:
+        return
+    ax, ay, az = ax / an, ay / an, az / an
+    bx, by, bz = bx / bn, by / bn, bz / bn
+    dw = 1.0 + ax * bx + ay * by + az * bz
+    if dw < 1e-9:
+        return                                  # half a turn: never asked by a continuous gait
+    qx, qy, qz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    qn = math.sqrt(dw * dw + qx * qx + qy * qy + qz * qz)
+    dw, qx, qy, qz = dw / qn, qx / qn, qy / qn, qz / qn
+    ox, oy, oz = _qrot(dw, qx, qy, qz, gp[0] - cx, gp[1] - cy, gp[2] - cz)
+    gp[0] = cx + ox
+    gp[1] = cy + oy
+    gp[2] = cz + oz
+    q = _qmul(dw, qx, qy, qz, gq[0], gq[1], gq[2], gq[3])
+    for j in range(4):
+        gq[j] = q[j]
+
+
+@njit(cache=True)
 def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, group_duty, step_group, step_side,
               step_lift_scale, step_duty_scale, step_foot_adr, step_foot_num, step_state, step_progress, step_u,
-              foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_world,
-              foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, foot_tilt, root_dq, root_dpos,
+              foot_body, foot_offset, foot_rest_rot, foot_hip, foot_jointrel, foot_chain, foot_rigid, foot_knee,
+              foot_contact, foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, slope_w,
+              foot_slope, slope_alpha, foot_tilt, root_dq, root_dpos,
               bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, foot_bias,
               step_lift_u, step_parked, step_done, clearance):
     """Stage 2 of a frame (see the module docstring).
@@ -401,12 +482,16 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     place_pos (3,), yaw        this frame's placement (world)
     heights (3F + 5,)          ground height at the query points of ``gait_plan``
     group_lift/bob/sway (G,)   peak foot lift, hip bob and hip sway amplitudes, m
-    foot_tilt (4,)             slope rotation of planted feet, character space
+    slope_w (2,)               the body's filtered ground slope (world dz/dx, dz/dy)
+    foot_slope (F, 2)          each foot's ground slope (world; in/out): frozen while planted (a
+                               planted foot never turns), turned toward ``slope_w`` in flight and
+                               while owned by an animation, by ``slope_alpha`` per frame
+    foot_tilt (F, 4)           out: each foot's slope rotation in its own heading frame
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
     bob_state (6,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
                                height and whether it is set (in/out), and the filter's share per
                                frame (many fast feet must not shake the hips)
-    foot_hip/jointrel/chain/rigid  see ``engine.gait.rig`` (compass legs)
+    foot_hip/jointrel/chain/rigid/knee/contact  see ``engine.gait.rig`` (compass legs, pivot feet)
     root_pos, root_rot, goal_* in/out (character space)
     step_lift_u, step_parked, step_done (S,)  as in ``gait_plan`` (a hanging compass leg lifts here)
     foot_bias (F, 3)           the IK's constant miss of each foot at the rest stance
@@ -460,6 +545,19 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
                 foot_world[f, 1] = y
                 foot_world[f, 2] = max(z, floor)
                 foot_yaw[f] = foot_lift_yaw[f] + fw * (foot_target_yaw[f] - foot_lift_yaw[f])
+    # each foot's slope rotation, in its own heading frame (``_foot_rel_rot`` turns it by the
+    # foot's yaw): planted feet keep the slope they landed with
+    for s in range(step_group.shape[0]):
+        for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
+            if step_state[s] != STANCE:
+                foot_slope[f, 0] += slope_alpha * (slope_w[0] - foot_slope[f, 0])
+                foot_slope[f, 1] += slope_alpha * (slope_w[1] - foot_slope[f, 1])
+            cf, sf = math.cos(foot_yaw[f]), math.sin(foot_yaw[f])
+            sx = cf * foot_slope[f, 0] + sf * foot_slope[f, 1]
+            sl = -sf * foot_slope[f, 0] + cf * foot_slope[f, 1]
+            q = _pitch_roll(-math.atan(sx), math.atan(sl))
+            for j in range(4):
+                foot_tilt[f, j] = q[j]
     # root: crouch, slope and lean rotation, bob and sway
     n_per = max(step_group.shape[0], 1) / max(ngroup, 1)
     # two first-order stages in a row (bob_state[4:6] the first): a single stage passes the
@@ -543,7 +641,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
         contact = True
         for f in range(step_foot_adr[s], step_foot_adr[s] + step_foot_num[s]):
             L = foot_chain[f]
-            rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt, pitch * step_lift_scale[s])
+            rw, rx, ry, rz = _foot_rel_rot(foot_yaw[f] - yaw, foot_tilt[f], pitch * step_lift_scale[s])
             ox, oy, oz = _qrot(rw, rx, ry, rz, foot_jointrel[f, 0], foot_jointrel[f, 1], foot_jointrel[f, 2])
             # foot joint and hip in character space
             dx = foot_world[f, 0] - place_pos[0]
@@ -612,12 +710,19 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             # rotation: yaw relative to the heading, the slope tilt, the flight pitch (toe up
             # about the character's left axis), then the rest rotation
             h = 0.5 * (foot_yaw[f] - yaw)
-            q = _qmul(math.cos(h), 0.0, 0.0, math.sin(h), foot_tilt[0], foot_tilt[1], foot_tilt[2], foot_tilt[3])
+            q = _qmul(math.cos(h), 0.0, 0.0, math.sin(h), foot_tilt[f, 0], foot_tilt[f, 1], foot_tilt[f, 2],
+                      foot_tilt[f, 3])
             q = _qmul(q[0], q[1], q[2], q[3], hp, 0.0, -sp, 0.0)
             q = _qmul(q[0], q[1], q[2], q[3], foot_rest_rot[f, 0], foot_rest_rot[f, 1], foot_rest_rot[f, 2],
                       foot_rest_rot[f, 3])
             for j in range(4):
                 goal_rot[b, j] = q[j]
             goal_rw[b] = 1.0
+            if foot_knee[f, 3] > 0.0:
+                # a pivot foot turns about its contact point to keep its knee on the
+                # segment's sphere around the hip (the root rises by the clearance below)
+                hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
+                pivot_goal(goal_pos[b], goal_rot[b], foot_rest_rot[f], (hx, hy, hz + clearance), foot_knee[f],
+                           foot_contact[f])
     # the root rises with the goals (after the compass hips above were set from the feet)
     root_pos[2] += clearance

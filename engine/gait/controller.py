@@ -35,6 +35,8 @@ from engine.model.creature import Creature
 #: Time constants (s) of the filters on the placement height and the torso tilt.
 HEIGHT_TAU = 0.12
 TILT_TAU = 0.25
+#: Time constant (s) of a flying foot's turn toward the body's ground slope.
+FOOT_TILT_TAU = 0.05
 #: Time constant (s) of the filter on the hip bob and sway.
 BOB_TAU = 0.06
 #: Largest constant miss of a foot at the rest stance (share of its leg length) the
@@ -135,7 +137,13 @@ class GaitController:
         self._heights = np.zeros(3 * F + 5)
         self._place3 = np.zeros(3)
         self._vel3 = np.zeros(3)
-        self._foot_tilt = np.array([1.0, 0.0, 0.0, 0.0])
+        #: Each foot's ground slope (world dz/dx, dz/dy) and its tilt quaternion in its own
+        #: heading frame: frozen while the foot is planted, so a planted foot never turns
+        #: (see ``K.gait_pose``)
+        self.foot_slope = np.zeros((F, 2))
+        self._foot_tilt = np.zeros((F, 4))
+        self._foot_tilt[:, 0] = 1.0
+        self._slope_w = np.zeros(2)
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
         self._bob = np.zeros(6)               # see ``_kernels.gait_pose``
@@ -205,6 +213,7 @@ class GaitController:
         out_r[:, 0] = 1.0
         fb = r.foot_body
         foot_len = r.group_length[r.step_group[r.foot_stepper]]
+        pivots = [f for f in range(r.nfoot) if r.foot_knee[f, 3] > 0.0]
 
         def miss_of(root_drop: float, bob: float, feet, dx: float, dy: float, alternate: bool = False,
                     lift: float = 0.0):
@@ -240,6 +249,11 @@ class GaitController:
                     need = math.sqrt(max(r.foot_chain[f] ** 2 - (h[0] - j[0]) ** 2 - (h[1] - j[1]) ** 2, 0.0))
                     dz.append(j[2] + need - h[2])
                 root[2] = c.body_rest_pos[0][2] + float(np.mean(dz))
+            for f in pivots:
+                # pivot feet turn about their contact points, as in the gait (``K.pivot_goal``)
+                b = int(fb[f])
+                K.pivot_goal(goals.goal_pos[b], goals.goal_rot[b], r.foot_rest_rot[f],
+                             root + _rotate(c.body_rest_rot[0], r.foot_hip[f]), r.foot_knee[f], r.foot_contact[f])
             solve_ik(plan, root, c.body_rest_rot[0], goals, out_p, out_r, scratch)
             miss = out_p[fb] - goals.goal_pos[fb]
             counted = np.ones(r.nfoot, bool)
@@ -608,6 +622,8 @@ class GaitController:
             h4 = [self._sample_scalar(place_pos[0] + a * e, place_pos[1] + b * e)
                   for a, b in ((c, s), (-c, -s), (-s, c), (s, -c))]
             self._tilt[0], self._tilt[1] = (h4[0] - h4[1]) / (2 * e), (h4[2] - h4[3]) / (2 * e)
+        self.foot_slope[:, 0] = c * self._tilt[0] - s * self._tilt[1]
+        self.foot_slope[:, 1] = s * self._tilt[0] + c * self._tilt[1]
         self._bob[3] = 0.0                    # compass legs: no held hip height yet
         # start crouched as the style wants at rest (straight legs must bend to step)
         self._crouch = min(max((max(self._params(g, 0.0)[7] * r.group_length[g], self.min_crouch)
@@ -794,7 +810,9 @@ class GaitController:
         pitch = -align * math.atan(self._tilt[0]) + self._lean[0]      # nose up on an uphill (-pitch about +y)
         roll = align * math.atan(self._tilt[1]) + self._lean[1]
         _pitch_roll_into(pitch, roll, self._root_dq)
-        _pitch_roll_into(-math.atan(self._tilt[0]), math.atan(self._tilt[1]), self._foot_tilt)
+        # the body's slope in the world: feet in flight turn toward it, planted ones keep theirs
+        self._slope_w[0] = cy * self._tilt[0] - sy * self._tilt[1]
+        self._slope_w[1] = sy * self._tilt[0] + cy * self._tilt[1]
         # crouch: the style's, low-pass filtered
         want = self.min_crouch
         for g in range(r.ngroup):
@@ -817,8 +835,10 @@ class GaitController:
                     self.group_duty, r.step_group, r.step_side, self.step_lift_scale, self.step_duty_scale,
                     r.step_foot_adr, r.step_foot_num, self.step_state, self.step_progress, self.step_prev_u,
                     r.foot_body, r.foot_offset, r.foot_rest_rot, r.foot_hip, r.foot_jointrel, r.foot_chain,
-                    r.foot_rigid, self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
-                    self.foot_target_yaw, self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
+                    r.foot_rigid, r.foot_knee, r.foot_contact, self.foot_world, self.foot_lift, self.foot_yaw,
+                    self.foot_lift_yaw, self.foot_target,
+                    self.foot_target_yaw, self._slope_w, self.foot_slope, 1.0 - math.exp(-dt / FOOT_TILT_TAU),
+                    self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
                     1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw, self.foot_bias, self.step_lift_u, self.step_parked,
                     self.step_done, GROUND_CLEARANCE if r.nfoot else 0.0)

@@ -4,11 +4,15 @@
 changes, a sudden stop, a reverse and a sharp turn, on flat ground or on rolling
 terrain scaled to the creature, and measures on ``char.world_positions`` (after the IK):
 
-- ``stance_slide_mm``: the largest distance a foot moves in world space during one
-  stance (from its first stance frame);
-- ``touchdown_error_mm``: the largest |contact height - terrain height| at touchdown,
-  the contact point being the foot origin minus its rest height above its lowest corner;
-- ``below_ground_mm``: how far the contact point ever gets below the terrain (0 if never);
+- ``stance_slide_mm``: the largest distance a foot's contact point moves in world space
+  during one stance (from its first stance frame). The contact point is the point of the
+  foot body that touches the ground at rest (``rig.foot_contact``, carried by the foot's
+  output pose): a foot that rolls or pivots about it (a centipede's tibia) is planted, a
+  foot that turns about its origin while its tip scrapes the ground is not;
+- ``touchdown_error_mm``: the largest |contact height - terrain height| at touchdown;
+- ``below_ground_mm``: how far a contact point ever gets below the terrain (0 if never).
+  A crawler's pseudo-feet roll as the spine arches: their contact point is taken as the
+  body origin minus its rest height above its lowest corner;
 - ``stretch_ratio``: the largest hip-joint to foot-joint distance over the leg's chain
   length (1 = straight; the IK's limb constraints stretch at most 2%);
 - ``root_accel``: the largest root acceleration, leg lengths per s^2 (continuity: the
@@ -100,6 +104,8 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
            "root_accel": 0.0, "foot_speed": 0.0, "finite": True, "stances": 0, "gait_ms": 0.0, "tick_ms": 0.0,
            "worst": "", "travel": 0.0}
     # hip and foot joints for the stretch ratio (walkers only)
+    # the contact point in each foot's own frame
+    contact_local = np.array([_rot(_conj(rig.foot_rest_rot[f]), rig.foot_contact[f]) for f in range(F)]).reshape(-1, 3)
     if rig.mode == "walk":
         limb_root = np.array([int(creature.limb_root[creature.body_limb[f]]) for f in feet])
         chain = np.array([float(creature.body_limb_length[f]) for f in feet])
@@ -139,21 +145,27 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
         if prev_feet is not None and i > warm:
             out["foot_speed"] = max(out["foot_speed"], float(np.max(np.linalg.norm(fp - prev_feet, axis=1))) / dt / L)
         prev_feet = fp.copy()
-        ground = height(fp[:, 0], fp[:, 1]) if height is not None else np.zeros(F)
-        contact = fp[:, 2] - rig.foot_offset
+        if rig.mode == "walk":
+            wr_feet = ch.world_rotations[feet]
+            cp = fp + np.array([_rot(wr_feet[f], contact_local[f]) for f in range(F)])
+        else:
+            cp = fp.copy()
+            cp[:, 2] -= rig.foot_offset
+        ground = height(cp[:, 0], cp[:, 1]) if height is not None else np.zeros(F)
+        contact = cp[:, 2]
         out["below_ground_mm"] = max(out["below_ground_mm"], float(np.max(ground - contact)) * 1000.0)
         state = gait.step_state[rig.foot_stepper]
         stance = state == 0
         for f in range(F):
             if stance[f] and not in_stance[f]:
-                stance_start[f] = fp[f]
+                stance_start[f] = cp[f]
                 if i > 0:
                     err = abs(float(contact[f] - ground[f])) * 1000.0
                     if err > out["touchdown_error_mm"]:
                         out["touchdown_error_mm"] = err
                     out["stances"] += 1
             elif stance[f]:
-                slide = float(np.linalg.norm(fp[f] - stance_start[f])) * 1000.0
+                slide = float(np.linalg.norm(cp[f] - stance_start[f])) * 1000.0
                 if slide > out["stance_slide_mm"]:
                     out["stance_slide_mm"] = slide
                     out["worst"] = f"{creature.body_names[feet[f]]} t={t:.2f}s"
@@ -192,6 +204,10 @@ def gait_ms(creature: Creature, frames: int = 240, dt: float = 1.0 / 60.0) -> fl
         ch.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r],
                      s.goal_rot[r], s.goal_pw[r], s.goal_rw[r])
     return 1000.0 * (time.perf_counter() - t0) / frames
+
+
+def _conj(q):
+    return np.array([q[0], -q[1], -q[2], -q[3]])
 
 
 def _rot(q, v):

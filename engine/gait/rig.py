@@ -28,6 +28,21 @@ Arrays (F feet, S steppers, G groups; all read-only):
     foot_rigid (F,) int32         1 when one rigid segment joins hip and foot (no knee): the foot
                                   stays on a sphere around the hip, so the hips vault over the
                                   planted foot (a compass gait) and the swing foot follows the sphere
+    foot_contact (F, 3)           rest contact point (centre of the foot box's lowest face or edge)
+                                  minus the rest foot origin, character space
+    foot_knee (F, 4)              a *pivot* foot (see below): rest foot joint minus rest foot origin
+                                  (character space) and the rigid segment's length from hip joint to
+                                  foot joint (its last entry; 0 for every other foot)
+
+A pivot foot is the lower leg of a knee-less limb: one rigid segment joins the hip to the
+foot's joint and the foot body reaches far from that joint down to the ground (a
+centipede's tibia). Holding such a foot at a fixed rotation would make the leg a compass
+leg hanging from a near-horizontal femur, whose hip height changes as the square root of
+the foot's shift. The foot joint is a knee instead: the gait plants the contact point and
+turns the foot about it so the joint sits on the segment's sphere around the hip
+(``engine.gait._kernels.pivot_goal``). For the rest of the gait such a leg is an ordinary
+bending leg whose "foot joint" is the contact point (``foot_jointrel`` = ``foot_contact``,
+``foot_chain`` = segment + foot reach).
     step_foot_adr, step_foot_num (S,) int32   feet of stepper s: foot_* rows [adr, adr+num)
     step_group (S,) int32, step_side (S,) float64 (+1 left, -1 right, 0 middle), step_rank (S,) int32
                                   (row from the front within its group)
@@ -60,6 +75,12 @@ NCROUCH = 21
 MAX_CROUCH = 0.4
 #: Half-sweep (leg lengths) a group must be able to make; straight legs crouch for it.
 MIN_SWEEP = 0.2
+#: A knee-less leg's foot is a pivot foot when its contact point lies at least this share
+#: of the rigid segment's length from the foot joint, and the segment and the foot meet at
+#: an angle between PIVOT_ANGLE and 180 degrees - PIVOT_ANGLE (a knee that can bend both
+#: ways; a straight stick is a compass leg).
+PIVOT_REACH = 0.25
+PIVOT_ANGLE = np.radians(30.0)
 MODES = ("walk", "crawl", "float")
 
 
@@ -76,6 +97,8 @@ class GaitRig:
     foot_reach: np.ndarray
     foot_chain: np.ndarray
     foot_rigid: np.ndarray
+    foot_contact: np.ndarray
+    foot_knee: np.ndarray
     step_foot_adr: np.ndarray
     step_foot_num: np.ndarray
     step_group: np.ndarray
@@ -147,11 +170,46 @@ def _rot(q, v):
     return v + w * t + np.cross(u, t)
 
 
-def _lowest_corner(c: Creature, b: int) -> float:
+def _corners(c: Creature, b: int) -> np.ndarray:
+    """The eight corners of body b's box at rest, character space (8, 3)."""
     e = c.body_extent[b]
     corners = np.array([[sx * e[0], sy * e[1], sz * e[2]] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    z = [(_rot(c.body_rest_rot[b], k) + c.body_rest_pos[b])[2] for k in corners]
-    return float(min(z))
+    return np.array([_rot(c.body_rest_rot[b], k) + c.body_rest_pos[b] for k in corners])
+
+
+def _lowest_corner(c: Creature, b: int) -> float:
+    return float(np.min(_corners(c, b)[:, 2]))
+
+
+def contact_point(c: Creature, b: int) -> np.ndarray:
+    """Where body b touches flat ground at rest (character space): the centre of its box's
+    lowest face, edge or corner (corners within 5% of the box's largest half-extent of the
+    lowest count as touching)."""
+    k = _corners(c, b)
+    zmin = float(np.min(k[:, 2]))
+    tol = 1e-6 + 0.05 * float(np.max(c.body_extent[b]))
+    low = k[k[:, 2] <= zmin + tol]
+    p = low.mean(axis=0)
+    p[2] = zmin
+    return p
+
+
+def _pivot(c: Creature, f: int, hip: np.ndarray, chain: float):
+    """(foot joint - origin, contact - origin) of foot body f when it is a pivot foot of a
+    knee-less leg whose hip joint is ``hip`` (character space, rest) and segment ``chain`` m
+    long (see the module docstring), else None."""
+    joint = c.body_joint[f]
+    contact = contact_point(c, f)
+    reach = float(np.linalg.norm(contact - joint))
+    if chain <= 1e-6 or reach < PIVOT_REACH * chain:
+        return None
+    a, b = hip - joint, contact - joint
+    cosang = float(np.dot(a, b) / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-12))
+    ang = float(np.arccos(min(max(cosang, -1.0), 1.0)))
+    if not (PIVOT_ANGLE <= ang <= np.pi - PIVOT_ANGLE):
+        return None
+    origin = c.body_rest_pos[f]
+    return joint - origin, contact - origin
 
 
 def decide_mode(c: Creature, usable_legs: int) -> str:
@@ -187,7 +245,8 @@ def _empty_rig(c: Creature) -> GaitRig:
     i0 = np.zeros(0, np.int32)
     return GaitRig(mode="float", foot_body=i0, foot_stepper=i0, foot_neutral=np.zeros((0, 3)), foot_offset=z0,
                    foot_rest_rot=np.zeros((0, 4)), foot_hip=np.zeros((0, 3)), foot_jointrel=np.zeros((0, 3)),
-                   foot_reach=z0, foot_chain=z0, foot_rigid=i0, step_foot_adr=i0, step_foot_num=i0, step_group=i0,
+                   foot_reach=z0, foot_chain=z0, foot_rigid=i0, foot_contact=np.zeros((0, 3)),
+                   foot_knee=np.zeros((0, 4)), step_foot_adr=i0, step_foot_num=i0, step_group=i0,
                    step_side=z0,
                    step_rank=i0, group_length=z0, group_ratio=z0, group_ratio_pq=(), group_radius=z0,
                    group_sweep=np.zeros((0, NCROUCH)), group_min_crouch=z0, float_height=float(max(c.size[2], 1e-3)))
@@ -240,10 +299,25 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
     foot_neutral = c.body_rest_pos[foot_body].copy()
     foot_offset = np.array([c.body_rest_pos[f, 2] - _lowest_corner(c, f) for f in foot_body])
     foot_jointrel = c.body_joint[foot_body] - foot_neutral
-    foot_reach = REACH_SHARE * chain
+    foot_contact = np.array([contact_point(c, int(f)) for f in foot_body]).reshape(-1, 3) - foot_neutral
     # hip joint in character space at rest (the root at rest)
     root_p, root_q = c.body_rest_pos[0], c.body_rest_rot[0]
-    hip_rest = np.array([root_p + _rot(root_q, h) for h in foot_hip])
+    hip_rest = np.array([root_p + _rot(root_q, h) for h in foot_hip]).reshape(-1, 3)
+    # pivot feet: the foot joint is a knee, the contact point the leg's end
+    foot_knee = np.zeros((len(foot_body), 4))
+    for f in range(len(foot_body)):
+        if not foot_rigid[f]:
+            continue
+        piv = _pivot(c, int(foot_body[f]), hip_rest[f], float(chain[f]))
+        if piv is None:
+            continue
+        knee, contact = piv
+        foot_knee[f, :3] = knee
+        foot_knee[f, 3] = chain[f]
+        foot_jointrel[f] = contact
+        chain[f] = chain[f] + float(np.linalg.norm(contact - knee))
+        foot_rigid[f] = 0
+    foot_reach = REACH_SHARE * chain
     group_radius = np.zeros(ngroup)
     group_sweep = np.zeros((ngroup, NCROUCH))
     crouch = np.linspace(0.0, MAX_CROUCH, NCROUCH)
@@ -279,6 +353,7 @@ def _walk_rig(c: Creature, legs: list[int]) -> GaitRig:
     return GaitRig(mode="walk", foot_body=foot_body, foot_stepper=foot_stepper, foot_neutral=foot_neutral,
                    foot_offset=foot_offset, foot_rest_rot=c.body_rest_rot[foot_body].copy(), foot_hip=foot_hip,
                    foot_jointrel=foot_jointrel, foot_reach=foot_reach, foot_chain=chain, foot_rigid=foot_rigid,
+                   foot_contact=foot_contact, foot_knee=foot_knee,
                    step_foot_adr=np.array([r[0] for r in step_rows], np.int32),
                    step_foot_num=np.array([r[1] for r in step_rows], np.int32), step_group=step_group,
                    step_side=step_side, step_rank=step_rank, group_length=group_length,
@@ -337,7 +412,9 @@ def _crawl_rig(c: Creature) -> GaitRig:
                    foot_rest_rot=c.body_rest_rot[foot_body].copy(), foot_hip=np.zeros((n, 3)),
                    foot_jointrel=np.zeros((n, 3)), foot_reach=np.full(n, np.inf), foot_chain=np.zeros(n),
                    foot_rigid=np.zeros(n, np.int32),
-                   step_foot_adr=np.arange(n, dtype=np.int32), step_foot_num=np.ones(n, np.int32),
+                   foot_contact=np.array([contact_point(c, int(f)) for f in foot_body]) - foot_neutral,
+                   foot_knee=np.zeros((n, 4)), step_foot_adr=np.arange(n, dtype=np.int32),
+                   step_foot_num=np.ones(n, np.int32),
                    step_group=np.zeros(n, np.int32), step_side=np.zeros(n), step_rank=rank,
                    group_length=np.array([spacing]), group_ratio=np.ones(1), group_ratio_pq=(Fraction(1),),
                    group_radius=np.array([float(np.max(np.hypot(step_x, foot_neutral[:, 1])))]),
