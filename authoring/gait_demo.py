@@ -21,7 +21,7 @@ DEMO_GAITS = (
     ("dog", "trot", "quadruped: trot"),
     ("hexapod", "trot", "hexapod: alternating tripods"),
     ("spider", "walk", "octopod: walk"),
-    ("centipede", "walk", "centipede: knee-less legs, two alternating sets"),
+    ("centipede", "walk", "centipede: wave gait, knee-less legs on pivot feet"),
     ("tripod", "walk", "tripod: walk"),
     ("forkstrider", "walk", "forkstrider: branching legs"),
     ("snake", None, "snake: inch-worm crawl"),

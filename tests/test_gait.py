@@ -176,9 +176,11 @@ def _short(t, L):
     return -0.5 * L, 0.0, -0.8        # reverse and turn
 
 
-@pytest.mark.parametrize("name", ["mini", "minimal", "dog", "hexapod", "tripod", "forkstrider"])
+@pytest.mark.parametrize("name", ["mini", "minimal", "dog", "hexapod", "tripod", "forkstrider", "centipede",
+                                  "stilts"])
 def test_planted_feet_do_not_slide(name, mini):
-    c = mini if name == "mini" else engine.load_creature(f"creatures/{name}.yaml")
+    c = {"mini": mini, "stilts": creature_from_text(STILTS)}.get(name) or engine.load_creature(
+        f"creatures/{name}.yaml")
     for terrain in (False, True):
         m = run_scenario(c, seconds=3.0, terrain=terrain, commands=_short)
         assert m["finite"]
@@ -222,6 +224,111 @@ def test_compass_hips_ride_at_leg_length_over_planted_feet(mini):
             planted += 1
         held += planted > 0
     assert held > 140          # a foot holds the hips nearly all the time
+
+
+#: Four knee-less legs: a horizontal femur out to each side and a long vertical foot (a
+#: stilt) down to the ground; the feet are pivot feet (``engine.gait.rig``).
+STILTS = """\
+format: 1
+name: stilts
+description: test quadruped on stilts, knee-less legs with long feet
+bodies:
+  - name: trunk
+    caps: [spine]
+    pos: [0, 0, 0.4]
+    extents: [0.3, 0.12, 0.06]
+""" + "".join(f"""\
+  - name: femur_{n}
+    parent: trunk
+    caps: [limb]
+    pos: [{x}, {0.22 * y}, 0.4]
+    joint: [{x}, {0.12 * y}, 0.4]
+    extents: [0.02, 0.1, 0.02]
+  - name: stilt_{n}
+    parent: femur_{n}
+    caps: [foot]
+    pos: [{x}, {0.32 * y}, 0.2]
+    joint: [{x}, {0.32 * y}, 0.4]
+    extents: [0.02, 0.02, 0.2]
+""" for n, x, y in (("fl", 0.2, 1), ("fr", 0.2, -1), ("hl", -0.2, 1), ("hr", -0.2, -1)))
+
+
+@pytest.mark.parametrize("name", ["centipede", "stilts"])
+def test_pivot_feet_turn_about_their_contact_with_the_knee_on_the_hip_sphere(name):
+    """A knee-less leg with a long foot: the gait plants the foot's contact point and turns
+    the foot about it so the foot joint (the knee) stays exactly one segment from the hip;
+    checked on the gait's goals through a walk with a turn (goal level, not the IK)."""
+    c = creature_from_text(STILTS) if name == "stilts" else engine.load_creature(f"creatures/{name}.yaml")
+    ch = engine.Character(c)
+    g = ch._ensure_gait()
+    rig = g.rig
+    assert rig.nfoot >= 4 and np.all(rig.foot_knee[:, 3] > 0) and not np.any(rig.foot_rigid)
+    s, r = ch._stack, ch._row
+    start = {}
+    turned = 0.0
+    checked = 0
+    for i in range(150):
+        ch.locomote((0.3 * float(np.max(rig.group_length)), 0.0), 0.4 if i < 100 else -0.3)
+        ch.tick(1 / 60)
+        root_p, root_q = s.root_pos[r], s.root_rot[r]
+        place_p, place_q = s.place_pos[r], s.place_rot[r]
+        for f in range(rig.nfoot):
+            b = int(rig.foot_body[f])
+            if g.step_state[rig.foot_stepper[f]] != 0:
+                start.pop(f, None)
+                continue
+            gq = s.goal_rot[r, b]
+            rel = _qmul(gq, _qconj(rig.foot_rest_rot[f]))
+            knee = s.goal_pos[r, b] + _qrot(rel, rig.foot_knee[f, :3])
+            hip = root_p + _qrot(root_q, rig.foot_hip[f])
+            assert abs(np.linalg.norm(knee - hip) - rig.foot_knee[f, 3]) < 1e-9
+            contact = place_p + _qrot(place_q, s.goal_pos[r, b] + _qrot(rel, rig.foot_contact[f]))
+            world_q = _qmul(place_q, gq)
+            if f not in start:
+                start[f] = (contact, world_q)
+                continue
+            assert np.linalg.norm(contact - start[f][0]) < 1e-9      # the contact point stays put
+            turned = max(turned, 2.0 * math.acos(min(abs(float(np.dot(world_q, start[f][1]))), 1.0)))
+            checked += 1
+    assert checked > 200
+    assert turned > 0.05          # ... while the foot turns about it (the knee moves with the hip)
+
+
+def _qmul(a, b):
+    a0, a1, a2, a3 = a
+    b0, b1, b2, b3 = b
+    return np.array([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                     a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0])
+
+
+def _qconj(q):
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def test_planted_feet_keep_their_rotation_on_slopes(dog):
+    """A planted foot never turns in the world (it keeps the slope it landed with while the
+    body's slope and heading change under it), on rolling ground with a turn."""
+    ch = engine.Character(dog)
+    g = ch._ensure_gait()
+    rig = g.rig
+    ch.set_terrain(rolling_terrain(float(np.max(rig.group_length)), amplitude=0.15))
+    start = {}
+    checked = 0
+    for i in range(180):
+        ch.locomote((0.8 * float(np.max(rig.group_length)), 0.0), 0.6)
+        ch.tick(1 / 60)
+        s, r = ch._stack, ch._row
+        for f in range(rig.nfoot):
+            if g.step_state[rig.foot_stepper[f]] != 0:
+                start.pop(f, None)
+                continue
+            wq = _qmul(s.place_rot[r], s.goal_rot[r, int(rig.foot_body[f])])
+            if f not in start:
+                start[f] = wq
+                continue
+            assert abs(abs(float(np.dot(wq, start[f]))) - 1.0) < 1e-12
+            checked += 1
+    assert checked > 200
 
 
 def _qrot(q, v):
