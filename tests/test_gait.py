@@ -314,7 +314,7 @@ def test_planted_feet_keep_their_rotation_on_slopes(dog):
     ch.set_terrain(rolling_terrain(float(np.max(rig.group_length)), amplitude=0.15))
     start = {}
     checked = 0
-    for i in range(180):
+    for _ in range(180):
         ch.locomote((0.8 * float(np.max(rig.group_length)), 0.0), 0.6)
         ch.tick(1 / 60)
         s, r = ch._stack, ch._row
