@@ -47,20 +47,11 @@ def _terrain_grid(height, center, half: float, n: int = 13, lift: float = 0.0):
     return lines
 
 
-def _contact(ch, rig, f: int) -> np.ndarray:
-    """Where foot f touches the ground (world): its rest contact point carried by its pose."""
-    from engine.mathx.quat import quat_conj, quat_mul, quat_rotate
-
-    b = int(rig.foot_body[f])
-    q = quat_mul(ch.world_rotations[b], quat_conj(rig.foot_rest_rot[f]))
-    return ch.world_positions[b] + quat_rotate(q, rig.foot_contact[f])
-
-
 def walk_one(name: str, style, seconds: float, dt: float = 1.0 / 60.0):
     """Walk one library creature along an S-curve on rolling ground; returns the
     character, the terrain, the root trail (k, 3) and footprints (m, 3)."""
     import engine
-    from engine.gait.metrics import rolling_terrain
+    from engine.gait.metrics import contact_points, rolling_terrain
     from engine.gait.path import PathFollower, heading_of
 
     c = engine.load_creature(os.path.join(LIBRARY_CREATURES, f"{name}.yaml"))
@@ -89,9 +80,11 @@ def walk_one(name: str, style, seconds: float, dt: float = 1.0 / 60.0):
         ch.tick(dt)
         trail.append(ch.world_positions[0].copy())
         landed = (g.step_state == 0) & (prev_state != 0)
+        if np.any(landed):
+            contact = contact_points(rig, ch.world_positions, ch.world_rotations)
         for st in np.flatnonzero(landed):
             for f in range(rig.step_foot_adr[st], rig.step_foot_adr[st] + rig.step_foot_num[st]):
-                prints.append(_contact(ch, rig, f))
+                prints.append(contact[f].copy())
         prev_state[:] = g.step_state
     return ch, height, np.array(trail), np.array(prints).reshape(-1, 3), L
 

@@ -10,8 +10,17 @@ To explore fresh examples while developing, run with the ``explore`` profile:
 and pin whatever it finds as an ``@example`` or a plain test.
 """
 
+import pytest
 from hypothesis import settings
+
+import engine
 
 settings.register_profile("ci", derandomize=True, print_blob=True)
 settings.register_profile("explore", derandomize=False, print_blob=True)
 settings.load_profile("ci")
+
+
+@pytest.fixture(scope="module")
+def human():
+    """The library humanoid (a test module may define its own ``human``)."""
+    return engine.load_creature("creatures/humanoid.yaml")

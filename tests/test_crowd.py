@@ -20,11 +20,6 @@ DT = 1 / 60
 
 
 @pytest.fixture(scope="module")
-def human():
-    return engine.load_creature("creatures/humanoid.yaml")
-
-
-@pytest.fixture(scope="module")
 def perform():
     return load_animation("animations/perform.yaml")
 

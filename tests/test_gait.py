@@ -23,6 +23,7 @@ from engine.gait import (
 )
 from engine.gait.metrics import continuity_bound, rolling_terrain, run_scenario
 from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test biped
+from engine.mathx import quat_conj, quat_mul
 from engine.model import build_creature, creature_from_text
 from engine.model.random import random_creature_def
 
@@ -278,12 +279,12 @@ def test_pivot_feet_turn_about_their_contact_with_the_knee_on_the_hip_sphere(nam
                 start.pop(f, None)
                 continue
             gq = s.goal_rot[r, b]
-            rel = _qmul(gq, _qconj(rig.foot_rest_rot[f]))
+            rel = quat_mul(gq, quat_conj(rig.foot_rest_rot[f]))
             knee = s.goal_pos[r, b] + _qrot(rel, rig.foot_knee[f, :3])
             hip = root_p + _qrot(root_q, rig.foot_hip[f])
             assert abs(np.linalg.norm(knee - hip) - rig.foot_knee[f, 3]) < 1e-9
             contact = place_p + _qrot(place_q, s.goal_pos[r, b] + _qrot(rel, rig.foot_contact[f]))
-            world_q = _qmul(place_q, gq)
+            world_q = quat_mul(place_q, gq)
             if f not in start:
                 start[f] = (contact, world_q)
                 continue
@@ -292,17 +293,6 @@ def test_pivot_feet_turn_about_their_contact_with_the_knee_on_the_hip_sphere(nam
             checked += 1
     assert checked > 200
     assert turned > 0.05          # ... while the foot turns about it (the knee moves with the hip)
-
-
-def _qmul(a, b):
-    a0, a1, a2, a3 = a
-    b0, b1, b2, b3 = b
-    return np.array([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-                     a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0])
-
-
-def _qconj(q):
-    return np.array([q[0], -q[1], -q[2], -q[3]])
 
 
 def test_planted_feet_keep_their_rotation_on_slopes(dog):
@@ -322,7 +312,7 @@ def test_planted_feet_keep_their_rotation_on_slopes(dog):
             if g.step_state[rig.foot_stepper[f]] != 0:
                 start.pop(f, None)
                 continue
-            wq = _qmul(s.place_rot[r], s.goal_rot[r, int(rig.foot_body[f])])
+            wq = quat_mul(s.place_rot[r], s.goal_rot[r, int(rig.foot_body[f])])
             if f not in start:
                 start[f] = wq
                 continue

@@ -388,12 +388,7 @@ def _on_fork(c, body) -> bool:
                    "which swings through")
 @pytest.mark.parametrize("seed", [78, 2759])
 def test_sweep_branching_leg_foot_known_spin(seed):
-    c = random_creature(seed)
-    gb = [g for g in goal_bodies(c) if c.body_limb_length[g] > 0]
-    rng = np.random.default_rng(1)
-    body = gb[int(rng.integers(len(gb)))]
-    assert _on_fork(c, body)
-    _assert_smooth_sweep(c, body, rng)
+    _known_sweep_case(seed, on_fork=True)
 
 
 @pytest.mark.xfail(strict=True, reason="known: a serial leg's lone goal swept past full reach (1.04-1.17 reach; random "
@@ -401,9 +396,15 @@ def test_sweep_branching_leg_foot_known_spin(seed):
                    "and the anti-buckling blend engages abruptly")
 @pytest.mark.parametrize("seed", [7759, 881])
 def test_sweep_past_reach_known_spine_jump(seed):
+    _known_sweep_case(seed, on_fork=False)
+
+
+def _known_sweep_case(seed: int, on_fork: bool) -> None:
+    """The sweep of a pinned known case: random creature ``seed``, the limb goal body its
+    first draw picks (on a fork or not, as the case says)."""
     c = random_creature(seed)
     gb = [g for g in goal_bodies(c) if c.body_limb_length[g] > 0]
     rng = np.random.default_rng(1)
     body = gb[int(rng.integers(len(gb)))]
-    assert not _on_fork(c, body)
+    assert _on_fork(c, body) == on_fork
     _assert_smooth_sweep(c, body, rng)

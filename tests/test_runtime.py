@@ -17,11 +17,6 @@ DT = 1 / 60
 
 
 @pytest.fixture(scope="module")
-def human():
-    return engine.load_creature("creatures/humanoid.yaml")
-
-
-@pytest.fixture(scope="module")
 def wave():
     return load_animation("animations/wave.yaml")
 

@@ -896,9 +896,4 @@ def _rotate(q, v):
 
 def _pitch_roll_into(pitch: float, roll: float, out: np.ndarray) -> None:
     """Quaternion of a rotation by ``pitch`` about +y after ``roll`` about +x."""
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
-    out[0] = cp * cr
-    out[1] = cp * sr
-    out[2] = sp * cr
-    out[3] = -sp * sr
+    out[0], out[1], out[2], out[3] = K._pitch_roll(pitch, roll)

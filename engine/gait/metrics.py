@@ -31,6 +31,7 @@ import time
 
 import numpy as np
 
+from engine.mathx import quat_mul_batch, quat_rotate_batch
 from engine.model.creature import Creature
 
 #: Continuity bounds (issue 6) the scenario's sudden stop, reverse and sharp turn must stay
@@ -104,8 +105,6 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
            "root_accel": 0.0, "foot_speed": 0.0, "finite": True, "stances": 0, "gait_ms": 0.0, "tick_ms": 0.0,
            "worst": "", "travel": 0.0}
     # hip and foot joints for the stretch ratio (walkers only)
-    # the contact point in each foot's own frame
-    contact_local = np.array([_rot(_conj(rig.foot_rest_rot[f]), rig.foot_contact[f]) for f in range(F)]).reshape(-1, 3)
     if rig.mode == "walk":
         limb_root = np.array([int(creature.limb_root[creature.body_limb[f]]) for f in feet])
         chain = np.array([float(creature.body_limb_length[f]) for f in feet])
@@ -146,8 +145,7 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
             out["foot_speed"] = max(out["foot_speed"], float(np.max(np.linalg.norm(fp - prev_feet, axis=1))) / dt / L)
         prev_feet = fp.copy()
         if rig.mode == "walk":
-            wr_feet = ch.world_rotations[feet]
-            cp = fp + np.array([_rot(wr_feet[f], contact_local[f]) for f in range(F)])
+            cp = contact_points(rig, wp, ch.world_rotations)
         else:
             cp = fp.copy()
             cp[:, 2] -= rig.foot_offset
@@ -186,6 +184,17 @@ def run_scenario(creature: Creature, seconds: float = 8.0, dt: float = 1.0 / 60.
     return out
 
 
+def contact_points(rig, world_pos: np.ndarray, world_rot: np.ndarray) -> np.ndarray:
+    """Where each foot of ``rig`` touches the ground (F, 3): its rest contact point
+    (``rig.foot_contact``) carried by the foot's pose in ``world_pos`` (nbody, 3) and
+    ``world_rot`` (nbody, 4)."""
+    feet = rig.foot_body
+    rest = rig.foot_rest_rot
+    turn = quat_mul_batch(np.ascontiguousarray(world_rot[feet]),
+                          np.ascontiguousarray(rest * np.array([1.0, -1.0, -1.0, -1.0])))
+    return world_pos[feet] + quat_rotate_batch(turn, np.ascontiguousarray(rig.foot_contact))
+
+
 def gait_ms(creature: Creature, frames: int = 240, dt: float = 1.0 / 60.0) -> float:
     """Mean wall time of ``GaitController.step`` alone per frame (ms), walking on terrain."""
     from engine.runtime import Character
@@ -204,10 +213,6 @@ def gait_ms(creature: Creature, frames: int = 240, dt: float = 1.0 / 60.0) -> fl
         ch.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r],
                      s.goal_rot[r], s.goal_pw[r], s.goal_rw[r])
     return 1000.0 * (time.perf_counter() - t0) / frames
-
-
-def _conj(q):
-    return np.array([q[0], -q[1], -q[2], -q[3]])
 
 
 def _rot(q, v):
