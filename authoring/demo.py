@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from engine.cli import LIBRARY_CREATURES, REPO_ROOT
+from engine.paths import LIBRARY_ANIMATIONS, LIBRARY_CREATURES
 
 #: The creatures the demo shows: one of each kind of body plan.
 DEMO_CREATURES = ("humanoid", "dog", "horse", "spider", "hexapod", "centaur", "octopus", "bird", "twoheaded",
@@ -40,7 +40,7 @@ def library_creatures(names=DEMO_CREATURES):
 def library_animations():
     from engine.anim import load_animation
 
-    return [load_animation(p) for p in sorted(glob.glob(os.path.join(REPO_ROOT, "animations", "*.yaml")))]
+    return [load_animation(p) for p in sorted(glob.glob(os.path.join(LIBRARY_ANIMATIONS, "*.yaml")))]
 
 
 class Zoo:

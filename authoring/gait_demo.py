@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from engine.cli import LIBRARY_CREATURES
+from engine.paths import LIBRARY_CREATURES
 
 #: (creature, style per group or None for the default, label) of each panel.
 DEMO_GAITS = (

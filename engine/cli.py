@@ -1,7 +1,9 @@
-"""The ``menagerie`` command.
+"""The engine's batch commands of ``menagerie`` (no window, no OpenGL).
 
-    menagerie demo [--headless] [--gaits] [--out DIR]   the zoo (window, or PNGs without a display)
-    menagerie view FILE [--snapshot OUT.png]     look at a creature file
+The ``menagerie`` console script is ``authoring.cli:main``: it adds the tools that draw
+(demo, view, grid) to the commands here. ``engine`` never imports ``authoring``; this
+module also runs alone (``python -m engine.cli ...``) on machines without the viewer.
+
     menagerie creatures list [DIR]               counts per creature
     menagerie creatures generate --seed S --count N --out DIR [--force]
     menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
@@ -19,11 +21,12 @@ import os
 import sys
 import time
 
+from engine import paths
 from engine.errors import MenagerieError
 
-#: Where the library lives, relative to the repository root.
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-LIBRARY_CREATURES = os.path.join(REPO_ROOT, "creatures")
+#: Where the library lives, relative to the repository root (strings, for os.path users).
+REPO_ROOT = str(paths.REPO_ROOT)
+LIBRARY_CREATURES = str(paths.LIBRARY_CREATURES)
 
 
 def _creature_files(directory: str) -> list[str]:
@@ -81,58 +84,11 @@ def cmd_creatures_from_bvh(args: argparse.Namespace) -> int:
     return 0
 
 
-# -- viewing -----------------------------------------------------------------------------
-
-
-def cmd_view(args: argparse.Namespace) -> int:
-    from authoring.viewer import view_file
-
-    if not os.path.exists(args.file):
-        raise MenagerieError(f"{args.file}: no such file")
-    out = view_file(args.file, snapshot=args.snapshot)
-    if out:
-        print(f"wrote {out}")
-    return 0
-
-
-def cmd_demo(args: argparse.Namespace) -> int:
-    if args.gaits:
-        from authoring.gait_demo import run_gait_demo
-
-        return run_gait_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
-    from authoring.demo import run_demo
-
-    status = run_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
-    from authoring import render as rd
-
-    if status == 0 and (args.headless or rd.want_headless()):
-        # Without a window the demo also renders the gait panels (walking, trotting,
-        # crawling on rolling ground along curved paths) next to the zoo.
-        from authoring.gait_demo import run_gait_demo
-
-        status = run_gait_demo(headless=True, out_dir=os.path.join(args.out, "gaits"), seconds=args.seconds)
-    return status
-
-
 # -- entry point -------------------------------------------------------------------------
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="menagerie", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    demo = sub.add_parser("demo", help="the creature zoo, animated")
-    demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
-    demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
-    demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds")
-    demo.add_argument("--gaits", action="store_true", help="the gait demo: creatures walking on rolling ground")
-    demo.set_defaults(func=cmd_demo)
-
-    view = sub.add_parser("view", help="look at a creature file")
-    view.add_argument("file")
-    view.add_argument("--snapshot", metavar="OUT.png", help="render offscreen to a PNG and exit")
-    view.set_defaults(func=cmd_view)
-
+def add_batch_commands(sub) -> None:
+    """Add the engine's batch commands (creatures, mocap) to an argparse subparsers object."""
     creatures = sub.add_parser("creatures", help="list, generate or import creatures")
     csub = creatures.add_subparsers(dest="creatures_command", required=True)
     lst = csub.add_parser("list", help="counts per creature file")
@@ -158,11 +114,18 @@ def build_parser() -> argparse.ArgumentParser:
         pass
     else:
         add_mocap_parser(sub)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="menagerie", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_batch_commands(sub)
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+def run(parser: argparse.ArgumentParser, argv: list[str] | None = None) -> int:
+    """Parse ``argv`` with ``parser`` and run the chosen command: a ``MenagerieError`` (a
+    fault the user can fix) prints one line and gives status 2, never a traceback."""
     args = parser.parse_args(argv)
     started = time.perf_counter()
     try:
@@ -178,6 +141,10 @@ def main(argv: list[str] | None = None) -> int:
     if os.environ.get("MENAGERIE_TIMING"):
         print(f"[{time.perf_counter() - started:.2f} s]", file=sys.stderr)
     return int(status or 0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run(build_parser(), argv)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@
     menagerie mocap tune FILE.bvh [--mode constrained] [--points 10] [--max-order 19]
                          [--seed 0] [--kf 40] [--kvc 1] [--frames F0-F1] [--report tune.json]
 
-The lead's ``engine/cli.py`` calls ``add_mocap_parser(subparsers)``. Errors a user can
+``engine/cli.py`` calls ``add_mocap_parser(subparsers)``. Errors a user can
 cause raise ``MenagerieError`` subclasses, which the ``menagerie`` command prints in one
 line (exit status 2).
 """
