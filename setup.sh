@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Set up Menagerie in a virtual environment .venv at the repository root.
 #   bash setup.sh          runtime + viewer (numpy, numba, pyyaml, pyglet)
-#   bash setup.sh dev      + test tools (pytest, hypothesis, ruff, pillow)
+#   bash setup.sh grid     + the validation grid's batch tools (dask, matplotlib, tqdm)
+#   bash setup.sh dev      + test tools (pytest, hypothesis, ruff, pillow) and everything the
+#                            tests exercise (the grid extra; Debian's chromium for the report test)
 #   bash setup.sh bench    + reference peers for the benchmarks (ikpy, mujoco)
 # Needs only Python 3.11+ and the package registries. Offscreen rendering uses EGL
 # (Mesa); when its libraries are missing and we are root, they are installed with apt.
@@ -11,8 +13,8 @@ cd "$(dirname "$0")"
 extras=""
 for arg in "$@"; do
   case "$arg" in
-    dev|bench|media) extras="${extras:+$extras,}$arg" ;;
-    *) echo "setup.sh: unknown option '$arg' (use dev, bench or media)" >&2; exit 2 ;;
+    dev|bench|media|grid) extras="${extras:+$extras,}$arg" ;;
+    *) echo "setup.sh: unknown option '$arg' (use dev, grid, bench or media)" >&2; exit 2 ;;
   esac
 done
 
@@ -41,6 +43,16 @@ if ! ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || \
       echo "setup.sh: could not install EGL; offscreen rendering will be unavailable" >&2
   else
     echo "setup.sh: EGL/Mesa not found; install libegl1 libegl-mesa0 libgl1-mesa-dri for offscreen rendering" >&2
+  fi
+fi
+# Tests open the grid's report in a real browser: Debian's chromium (headless).
+if [[ ",$extras," == *",dev,"* ]] && ! command -v chromium >/dev/null 2>&1; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup.sh: installing chromium for the browser tests"
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) || \
+      echo "setup.sh: could not install chromium; the browser tests will be skipped" >&2
+  else
+    echo "setup.sh: chromium not found; install it (apt-get install chromium) for the browser tests" >&2
   fi
 fi
 echo "setup.sh: ready (.venv${extras:+ with $extras})"
