@@ -4,6 +4,7 @@ The ``menagerie`` console script:
 
     menagerie demo [--headless] [--gaits] [--out DIR]   the zoo (window, or PNGs without a display)
     menagerie view FILE [--snapshot OUT.png]     look at a creature file
+    menagerie grid [--library] [--random N] ...  the validation grid and its report
     menagerie creatures list|generate|from-bvh   the engine's batch commands (engine.cli)
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
@@ -53,7 +54,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def add_tool_commands(sub) -> None:
-    """The commands that draw: demo, view."""
+    """The commands that draw: demo, view, grid (its report has pictures)."""
+    from authoring.grid_report import add_grid_parser
+
     demo = sub.add_parser("demo", help="the creature zoo, animated")
     demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
     demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
@@ -65,6 +68,8 @@ def add_tool_commands(sub) -> None:
     view.add_argument("file")
     view.add_argument("--snapshot", metavar="OUT.png", help="render offscreen to a PNG and exit")
     view.set_defaults(func=cmd_view)
+
+    add_grid_parser(sub)
 
 
 def build_parser() -> argparse.ArgumentParser:
