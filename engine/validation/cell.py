@@ -27,13 +27,13 @@ from engine.anim.evaluate import default_target
 from engine.channels import _kernels as CK
 from engine.model.creature import Creature
 from engine.validation import thresholds as T
-from engine.validation.consistency import mirror_difference, path_independence
+from engine.validation.consistency import mirror_difference, path_independence, scrub_frames
 from engine.validation.continuity import continuity
 from engine.validation.goals import goal_error
 from engine.validation.ground import ground
 from engine.validation.limits import ik_limits
 from engine.validation.measure import Measure
-from engine.validation.record import FPS, Recording, record_cell, record_rest
+from engine.validation.record import FPS, PlaySpec, Recording, record_cell, record_cells, record_rest, scrub_poses
 from engine.validation.selfcollision import nonadjacent_pairs, rest_depths, self_intersection
 
 #: Random reachable target sets per cell, besides the file's defaults.
@@ -229,7 +229,7 @@ def mirrored_targets(sets: list[dict]) -> list[dict]:
 # -- one cell -----------------------------------------------------------------------------
 
 
-METRICS = (continuity, goal_error, ground, self_intersection, ik_limits, path_independence)
+METRICS = (continuity, goal_error, ground, self_intersection, ik_limits)
 
 
 def measure_recording(rec: Recording, ctx: CellContext) -> list[Measure]:
@@ -286,28 +286,25 @@ def _keep_poses(result: CellResult, rec: Recording) -> None:
     result.poses["worst_frame"] = frame
 
 
-def run_cell(creature: Creature, animation: Animation, variant: int, ctx: CellContext | None = None,
-             sets: list[dict] | None = None, keep: bool = True) -> tuple[CellResult, list[Recording]]:
-    """Play and judge one cell (every target set). Returns the result and the recordings."""
-    ctx = ctx or CellContext.for_creature(creature)
+def judge_recordings(creature: Creature, animation: Animation, variant: int, recs: list[Recording],
+                     ctx: CellContext, scrubs: list | None = None, keep: bool = True) -> CellResult:
+    """Judge one cell from its recordings (one per target set) and, for path independence,
+    the scrubbed poses of each (``consistency.scrub_requests`` / ``record.scrub_poses``)."""
     binding = bind(animation, creature)
     bound = binding.bound(variant)
-    sets = sets if sets is not None else target_sets(animation, creature, bound)
     res = CellResult(creature.name, animation.name, int(variant), bound.variant.id, T.PASS,
-                     source=creature.path or "", animation_path=animation.path or "", target_sets=sets)
-    recs = []
-    ticks = []
+                     source=creature.path or "", animation_path=animation.path or "",
+                     target_sets=[r.targets for r in recs])
     lookat = np.unique(bound.slots.slot_body[bound.slots.slot_rot_mode == CK.ROT_LOOKAT]).astype(np.int64)
-    for k, targets in enumerate(sets):
-        rec = record_cell(creature, animation, variant, targets)
+    ticks = []
+    for k, rec in enumerate(recs):
         rec.meta["lookat_bodies"] = lookat
-        recs.append(rec)
         res.plays += 1
         res.frames += rec.nframe
         ticks.append(rec.tick_s[: rec.nframe])
         if rec.error is not None:
             res.error = rec.error
-            res.reason = f"raised at t={rec.error_frame / FPS:.2f}s: {rec.error}"
+            res.reason = f"raised at t={(rec.error_frame + 1) / FPS:.2f}s: {rec.error}"
         finite = bool(np.all(np.isfinite(rec.world_pos)) and np.all(np.isfinite(rec.world_rot)))
         if not finite:
             bad = np.flatnonzero(~np.all(np.isfinite(rec.world_pos), axis=(0, 2)))
@@ -317,7 +314,10 @@ def run_cell(creature: Creature, animation: Animation, variant: int, ctx: CellCo
                           if bad.size else "non-finite rotations")
             _merge(res.measures, [Measure("finite", 0.0, "bool")], k)
             continue
-        _merge(res.measures, measure_recording(rec, ctx), k)
+        ms = measure_recording(rec, ctx)
+        if scrubs is not None and scrubs[k]:
+            ms.append(path_independence(rec, ctx, scrubs[k]))
+        _merge(res.measures, ms, k)
     allticks = np.concatenate(ticks) if ticks else np.zeros(0)
     res.ms_per_tick = float(np.median(allticks) * 1000.0) if allticks.size else 0.0
     res.measures["ms_per_tick"] = Measure("ms_per_tick", res.ms_per_tick, "ms")
@@ -327,43 +327,98 @@ def run_cell(creature: Creature, animation: Animation, variant: int, ctx: CellCo
         m = res.measures.get(w) if w else None
         k = int(m.detail.get("target_set", 0)) if m is not None else 0
         _keep_poses(res, recs[min(k, len(recs) - 1)])
-    return res, recs
+    return res
+
+
+def run_cell(creature: Creature, animation: Animation, variant: int, ctx: CellContext | None = None,
+             sets: list[dict] | None = None, keep: bool = True) -> tuple[CellResult, list[Recording]]:
+    """Play and judge one cell (every target set), each play a ``Character`` ticked alone.
+    Returns the result and the recordings."""
+    ctx = ctx or CellContext.for_creature(creature)
+    binding = bind(animation, creature)
+    if sets is None:
+        sets = cell_target_sets(animation, creature, binding, binding.variant(variant))
+    recs = [record_cell(creature, animation, variant, targets) for targets in sets]
+    specs = [PlaySpec(animation, int(variant), t) for t in sets]
+    scrubs = _scrub_all(creature, specs, recs)
+    return judge_recordings(creature, animation, variant, recs, ctx, scrubs, keep), recs
+
+
+def _scrub_all(creature: Creature, specs: list[PlaySpec], recs: list[Recording]) -> list[list]:
+    """Scrubbed poses for every recording: [[(frame, pos, rot, driven), ...] per recording]."""
+    requests, owner = [], []
+    for k, (sp, rec) in enumerate(zip(specs, recs, strict=True)):
+        if rec.error is not None:
+            continue
+        for i in scrub_frames(rec):
+            requests.append((sp, float(rec.clip_time[i])))
+            owner.append((k, i))
+    poses = scrub_poses(creature, requests) if requests else []
+    out: list[list] = [[] for _ in recs]
+    for (k, i), (pos, rot, driven) in zip(owner, poses, strict=True):
+        out[k].append((i, pos, rot, driven))
+    return out
 
 
 def run_creature(creature: Creature, animations, *, keep_poses: bool = True, variant: str | None = None,
                  progress=None) -> list[CellResult]:
     """Every (animation, variant) cell of one creature, judged; a cell that raises is a
     failed cell with its traceback, never a lost run. ``variant``: only the variant with
-    this id (``hand_l``; ``default`` for animations without variants)."""
+    this id (``hand_l``; ``default`` for animations without variants). Every play of the
+    creature is ticked in crowds of plays of about the same length (``record_cells``)."""
     ctx = CellContext.for_creature(creature)
     results: list[CellResult] = []
+    plan = []                       # (animation, binding, variants, first spec, spec owners)
+    specs: list[PlaySpec] = []
     for anim in animations:
         try:
             binding = bind(anim, creature)
         except BindError as exc:
             results.append(CellResult(creature.name, anim.name, -1, "", T.NA, reason=exc.reason,
                                       source=creature.path or "", animation_path=anim.path or ""))
-            if progress:
-                progress(1)
             continue
         except Exception as exc:  # noqa: BLE001
             results.append(_crashed(creature, anim, -1, exc))
             continue
-        recorded: dict[int, tuple[CellResult, list[Recording]]] = {}
-        variants = binding.variants
+        variants = [v for v in binding.variants if variant is None or v.id == variant]
+        first, owner = len(specs), []
         for v in variants:
-            if variant is not None and v.id != variant:
+            try:
+                for targets in cell_target_sets(anim, creature, binding, v):
+                    specs.append(PlaySpec(anim, v.index, targets))
+                    owner.append(v.index)
+            except Exception as exc:  # noqa: BLE001
+                results.append(_crashed(creature, anim, v.index, exc))
+        plan.append((anim, variants, first, owner))
+    try:
+        recs = record_cells(creature, specs)
+        ctx.rest_reference(max((r.nframe for r in recs), default=1))
+        scrubs = _scrub_all(creature, specs, recs)
+    except Exception as exc:  # noqa: BLE001 - record_cells isolates faults; this is a last resort
+        for anim, variants, _, _ in plan:
+            results.extend(_crashed(creature, anim, v.index, exc) for v in variants)
+        return results
+    for anim, variants, first, owner in plan:
+        recorded: dict[int, tuple[CellResult, list[Recording]]] = {}
+        for v in variants:
+            mine = [first + k for k, o in enumerate(owner) if o == v.index]
+            if not mine:
                 continue
             try:
-                sets = cell_target_sets(anim, creature, binding, v)
-                res, recs = run_cell(creature, anim, v.index, ctx, sets, keep=keep_poses)
+                res = judge_recordings(creature, anim, v.index, [recs[k] for k in mine], ctx,
+                                       [scrubs[k] for k in mine], keep=keep_poses)
             except Exception as exc:  # noqa: BLE001
-                res, recs = _crashed(creature, anim, v.index, exc), []
-            recorded[v.index] = (res, recs)
+                res = _crashed(creature, anim, v.index, exc)
+            recorded[v.index] = (res, [recs[k] for k in mine])
             results.append(res)
             if progress:
                 progress(1)
         _mirror_checks(recorded, variants, creature, ctx)
+        for k in range(first, first + len(owner)):
+            recs[k] = None          # judged: let the frames go
+    order = {id(a): i for i, a in enumerate(animations)}
+    by_name = {a.name: i for i, a in enumerate(animations)}
+    results.sort(key=lambda r: (by_name.get(r.animation, len(order)), r.variant))
     return results
 
 

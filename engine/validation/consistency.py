@@ -1,8 +1,8 @@
 """Consistency: path independence and mirror images.
 
 ``path_independence`` (size): the IK solves every frame from the rest pose, so the pose at
-time t must depend only on the goals at t. A fresh character that jumps straight to t
-(one tick of t seconds) is compared with the recording at t, at a few times; passive
+time t must depend only on the goals at t. A fresh character that starts the clip at t
+(``record.scrub_poses``) is compared with the recording at t, at a few times; passive
 (Jiggles) bodies carry their own state and are left out. The measure is the largest
 position difference of a body posed by the IK in both, over the creature's size.
 
@@ -19,22 +19,32 @@ from __future__ import annotations
 import numpy as np
 
 from engine.validation.measure import Measure
-from engine.validation.record import scrub_pose
 
 #: Shares of the clip at which the scrubbed pose is compared.
 SCRUB_AT = (0.3, 0.55, 0.8)
 
 
-def path_independence(rec, ctx) -> list[Measure]:
-    c = rec.creature
-    if rec.error is not None or rec.nframe == 0:
+def scrub_frames(rec) -> list[int]:
+    """Frames of ``rec`` to compare with a scrub: at ``SCRUB_AT`` shares of the clip, moved
+    to the nearest frame where the clip plays at full weight (a scrub jumps in at full
+    weight; fades are compared by playing, not scrubbing)."""
+    full = np.flatnonzero((rec.weight[: rec.end_frame] >= 1.0) & (rec.clip_time[: rec.end_frame] >= 0.0))
+    if full.size == 0:
         return []
-    worst_d, worst_b, worst_i = 0.0, 0, 0
+    out = []
     for share in SCRUB_AT:
-        i = min(int(round(share * rec.end_frame)) - 1, rec.nframe - 1)
-        if i < 1:
-            continue
-        pos, rot, driven = scrub_pose(c, rec.animation, rec.variant, rec.targets, float(rec.t[i]), fade=rec.fade)
+        want = share * rec.end_frame
+        i = int(full[np.argmin(np.abs(full - want))])
+        if i not in out:
+            out.append(i)
+    return out
+
+
+def path_independence(rec, ctx, scrubs) -> Measure:
+    """Compare ``rec`` with its scrubbed poses ``[(frame, pos, rot, driven), ...]``."""
+    c = rec.creature
+    worst_d, worst_b, worst_i = 0.0, 0, 0
+    for i, pos, _rot, driven in scrubs:
         both = driven & rec.driven[i]
         if not both.any():
             continue
@@ -42,8 +52,8 @@ def path_independence(rec, ctx) -> list[Measure]:
         b = int(np.argmax(d))
         if d[b] >= worst_d:
             worst_d, worst_b, worst_i = float(d[b]), b, i
-    return [Measure("path_independence", worst_d, "size", body=str(c.body_names[worst_b]), frame=worst_i,
-                    time=float(rec.t[worst_i]))]
+    return Measure("path_independence", worst_d, "size", body=str(c.body_names[worst_b]), frame=worst_i,
+                   time=float(rec.t[worst_i]))
 
 
 def mirror_difference(rec_a, rec_b, ctx) -> Measure:

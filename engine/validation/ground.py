@@ -37,15 +37,11 @@ def ground(rec, ctx) -> list[Measure]:
     v = ctx.foot_contact_local[None, :, :]
     tt = 2.0 * np.cross(u, v)
     contact = rec.world_pos[:, feet] + v + rec.world_rot[:, feet, :1] * tt + np.cross(u, tt)
-    slide = np.zeros((n, feet.size))
-    for k in range(feet.size):
-        start = None
-        for i in range(n):
-            if not standing[i, k]:
-                start = None
-                continue
-            if start is None:
-                start = contact[i, k].copy()
-            slide[i, k] = np.linalg.norm(contact[i, k] - start) / ctx.leg_length[k]
+    # each standing frame against the first frame of its stance (the latest frame where
+    # standing began, carried forward)
+    began = standing & ~np.vstack([np.zeros((1, feet.size), bool), standing[:-1]])
+    first = np.maximum.accumulate(np.where(began, np.arange(n)[:, None], 0), axis=0)
+    start = np.take_along_axis(contact, first[..., None], axis=0)
+    slide = np.where(standing, np.linalg.norm(contact - start, axis=-1), 0.0) / ctx.leg_length[None, :]
     out.append(worst("standing_slide", slide, "leg", [c.body_names[f] for f in feet], rec.t))
     return out

@@ -20,6 +20,13 @@ seen. Every tick's output is copied into preallocated arrays (``Recording``):
 
 The character stands at the world origin facing +X on flat ground, so world space and
 character space coincide (``place_pos`` is zero, ``place_rot`` the identity).
+
+``record_cell`` ticks one ``Character`` alone; ``record_cells`` plays many cells of one
+creature as members of ``engine.Crowd``s (the batched path a game's crowd takes; its
+members are bit-identical to characters ticked alone, ``tests/test_crowd.py``), which
+is how the grid plays them: several times cheaper per cell. ``tick_s`` is then the
+crowd's tick over its members. ``scrub_poses`` jumps fresh characters straight to given
+clip times, for path independence.
 """
 
 from __future__ import annotations
@@ -136,6 +143,127 @@ def record_cell(creature: Creature, animation: Animation, variant: int = 0, targ
         rec.root_rot[i] = s.root_rot[r]
         rec.driven[i] = s.driven[r]
     return rec
+
+
+@dataclass(frozen=True)
+class PlaySpec:
+    """One play of a cell: the animation, its variant index, the external targets."""
+
+    animation: Animation
+    variant: int
+    targets: dict
+
+
+#: Members per crowd in ``record_cells`` (recordings of a crowd are held at once).
+CROWD = 8
+
+
+def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, settle: float = SETTLE,
+                 fade: float = FADE, crowd: int = CROWD) -> list[Recording]:
+    """``record_cell`` for many plays of one creature, ticked as crowds of up to ``crowd``
+    members of about the same length (see the module docstring). A crowd that raises is
+    played again member by member, so a fault stays with the cell that has it."""
+    from engine.runtime import Character, Crowd
+
+    dt = 1.0 / fps
+    lengths = []
+    for sp in specs:
+        seconds, _ = play_seconds(sp.animation)
+        lengths.append(max(int(round(seconds * fps)), 1) + int(round(settle * fps)))
+    order = sorted(range(len(specs)), key=lambda k: lengths[k])
+    out: list[Recording | None] = [None] * len(specs)
+    for start in range(0, len(order), crowd):
+        group = order[start:start + crowd]
+        chars = [Character(creature) for _ in group]
+        recs, handles = [], []
+        for ch, k in zip(chars, group, strict=True):
+            sp = specs[k]
+            for name, p in sp.targets.items():
+                ch.set_target(name, p)
+        try:
+            cr = Crowd(chars)
+            for ch, k in zip(chars, group, strict=True):
+                sp = specs[k]
+                seconds, looping = play_seconds(sp.animation)
+                n_play = max(int(round(seconds * fps)), 1)
+                n = lengths[k]
+                handles.append((ch.play(sp.animation, variant=sp.variant, loop=looping, fade=fade), n_play, looping))
+                recs.append(_empty(creature, sp, dt, n_play, n, fade))
+                recs[-1].variant_id = handles[-1][0].payload.bound.variant.id
+            s = chars[0]._stack
+            a = s.player
+            n_max = max(lengths[k] for k in group)
+            rows = np.arange(len(group))
+            for i in range(n_max):
+                for (h, n_play, looping), ch in zip(handles, chars, strict=True):
+                    if looping and i == n_play:
+                        ch.stop(h, fade=fade)
+                t0 = time.perf_counter()
+                cr.tick(dt)
+                per = (time.perf_counter() - t0) / len(group)
+                for m, rec in zip(rows, recs, strict=True):
+                    if i >= rec.t.shape[0]:
+                        continue
+                    h = handles[m][0]
+                    rec.tick_s[i] = per
+                    rec.t[i] = (i + 1) * dt
+                    if h.playing:
+                        rec.clip_time[i] = a.time[m, h.slot]
+                        rec.weight[i] = a.effective[m, h.slot]
+                    rec.world_pos[i] = s.world_pos[m]
+                    rec.world_rot[i] = s.world_rot[m]
+                    rec.goal_pos[i] = s.goal_pos[m]
+                    rec.goal_rot[i] = s.goal_rot[m]
+                    rec.goal_pw[i] = s.goal_pw[m]
+                    rec.goal_rw[i] = s.goal_rw[m]
+                    rec.root_pos[i] = s.root_pos[m]
+                    rec.root_rot[i] = s.root_rot[m]
+                    rec.driven[i] = s.driven[m]
+        except Exception:  # noqa: BLE001 - find the member at fault, alone
+            recs = [record_cell(creature, specs[k].animation, specs[k].variant, specs[k].targets, fps=fps,
+                                settle=settle, fade=fade) for k in group]
+        for k, rec in zip(group, recs, strict=True):
+            out[k] = rec
+    return out  # type: ignore[return-value]
+
+
+def _empty(creature: Creature, sp: PlaySpec, dt: float, n_play: int, n: int, fade: float) -> Recording:
+    nb = creature.nbody
+    return Recording(
+        creature=creature, animation=sp.animation, variant=int(sp.variant), variant_id="",
+        targets=dict(sp.targets), dt=dt, end_frame=n_play, t=np.zeros(n), clip_time=np.full(n, -1.0),
+        weight=np.zeros(n), world_pos=np.zeros((n, nb, 3)), world_rot=np.zeros((n, nb, 4)),
+        goal_pos=np.zeros((n, nb, 3)), goal_rot=np.zeros((n, nb, 4)), goal_pw=np.zeros((n, nb)),
+        goal_rw=np.zeros((n, nb)), root_pos=np.zeros((n, 3)), root_rot=np.zeros((n, 4)),
+        driven=np.zeros((n, nb), np.bool_), tick_s=np.zeros(n), fade=float(fade))
+
+
+def scrub_poses(creature: Creature, requests: list[tuple[PlaySpec, float]], *, fps: int = FPS,
+                crowd: int = 64) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """For each (play, clip time): the pose a fresh character has when it starts the clip
+    one frame before that time at full weight and ticks one frame: world positions,
+    rotations and the driven mask. Ticked as crowds (one tick each)."""
+    from engine.runtime import Character, Crowd
+
+    dt = 1.0 / fps
+    out = []
+    for start in range(0, len(requests), crowd):
+        group = requests[start:start + crowd]
+        chars = []
+        for sp, t in group:
+            ch = Character(creature)
+            for name, p in sp.targets.items():
+                ch.set_target(name, p)
+            chars.append(ch)
+        cr = Crowd(chars)
+        for ch, (sp, t) in zip(chars, group, strict=True):
+            ch.play(sp.animation, variant=sp.variant, loop=sp.animation.loop, fade=0.0,
+                    start_time=min(max(t - dt, 0.0), sp.animation.length))
+        cr.tick(dt)
+        s = chars[0]._stack
+        for m in range(len(group)):
+            out.append((s.world_pos[m].copy(), s.world_rot[m].copy(), s.driven[m].copy()))
+    return out
 
 
 def record_rest(creature: Creature, frames: int, *, fps: int = FPS) -> tuple[np.ndarray, np.ndarray]:
