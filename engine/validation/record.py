@@ -250,7 +250,7 @@ def scrub_poses(creature: Creature, requests: list[tuple[PlaySpec, float]], *, f
     for start in range(0, len(requests), crowd):
         group = requests[start:start + crowd]
         chars = []
-        for sp, t in group:
+        for sp, _t in group:
             ch = Character(creature)
             for name, p in sp.targets.items():
                 ch.set_target(name, p)
