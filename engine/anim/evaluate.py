@@ -196,9 +196,9 @@ def evaluate_goals(animation: Animation, creature, t: float, targets: dict | Non
     animation loops, clamped otherwise). ``targets`` maps external target names to
     character-space positions; ``body_pos`` (nbody, 3) positions the secondary bodies
     (default: where this frame's goals put them, as the runtime does:
-    ``engine.anim._kernels.goals_kernel_body_targets``). Pass ``out`` (``Goals.empty(nbody)``) to write in place: after the
-    first call for an (animation, creature) pair nothing is allocated but the small dict
-    lookups."""
+    ``engine.anim._kernels.goals_kernel_body_targets``). Pass ``out``
+    (``Goals.empty(nbody)``) to write in place: after the first call for an (animation,
+    creature) pair nothing is allocated but the small dict lookups."""
     binding, scratch, table = _bound(animation, creature)
     if out is None:
         out = Goals.empty(creature.nbody)
