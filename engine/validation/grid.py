@@ -23,6 +23,7 @@ and returns what is done (``GridRun.interrupted``).
 
 from __future__ import annotations
 
+import logging
 import os
 import platform
 import time
@@ -271,7 +272,7 @@ def _run_dask(run, sources, paths, task, workers, address, variant, bar, on_task
     else:
         n = workers or os.cpu_count() or 1
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=40)
+                               silence_logs=logging.CRITICAL)
         client = Client(cluster)
         run.scheduler = "LocalCluster"
     try:
