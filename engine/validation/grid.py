@@ -181,7 +181,7 @@ def cell_task(source: Source, paths: tuple[str, ...], variant: str | None = None
 
 
 def _cell_json(result, source: Source) -> dict:
-    d = result.to_json(with_series=result.status == T.FAIL)
+    d = result.to_json()
     d["source_kind"] = source.kind
     d["reproduce"] = reproduce_command(source, result)
     return d
