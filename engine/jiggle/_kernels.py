@@ -47,6 +47,11 @@ from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into
 
 #: Largest share of a body's lever its parent's lag may push its tip by (see the kernel).
 PARENT_SHARE = 0.3
+#: Largest deflection, as a share of the lever, a body handed over from the IK keeps (it
+#: then swings back).
+HANDOFF_SHARE = 0.9
+#: Largest deviation of a simulated lever from the rigid one, as a share of the lever.
+DEVIATION = 0.9
 
 
 @njit(cache=True)
@@ -152,6 +157,7 @@ def jiggle_kernel(
             w = jig_omega[i]
             z = jig_zeta[i]
             denom = 1.0 + 2.0 * z * w * dt + w * w * dt * dt
+            lever_len0 = np.sqrt(lever_rigid[0] ** 2 + lever_rigid[1] ** 2 + lever_rigid[2] ** 2)
             e_before = 0.0
             for k in range(3):
                 e_before += state_err[i, k] * state_err[i, k]
@@ -171,7 +177,7 @@ def jiggle_kernel(
             # that just became passive far from its rigid target, at the end of a clip,
             # swings back from where it was instead of jumping to the limit); sleep when
             # settled.
-            limit = max(jig_max_err[i], np.sqrt(e_before))
+            limit = max(jig_max_err[i], min(np.sqrt(e_before), HANDOFF_SHARE * lever_len0))
             if e2 > limit * limit:
                 s = limit / np.sqrt(e2)
                 for k in range(3):
@@ -187,9 +193,7 @@ def jiggle_kernel(
             # long swinging parent (an eye on a head) would point its lever wherever d
             # says, even backwards through its joint, and spin. So d enters softly, at most
             # ``PARENT_SHARE`` of the lever (d / sqrt(1 + (|d| / (share |lever|))^2): about
-            # d while small, never more): with the error clamped at MAX_DEFLECTION of the
-            # lever the simulated lever stays within 0.9 of it of the rigid one, so the turn
-            # is below 64 degrees and continuous (it never passes the antipode).
+            # d while small, never more).
             lever_len = np.sqrt(lever_rigid[0] ** 2 + lever_rigid[1] ** 2 + lever_rigid[2] ** 2)
             dd = 0.0
             for k in range(3):
@@ -197,8 +201,17 @@ def jiggle_kernel(
                 dd += tmp[k] * tmp[k]
             cap = PARENT_SHARE * lever_len
             soft = 1.0 / np.sqrt(1.0 + dd / (cap * cap)) if cap > 0.0 else 0.0
+            dev2 = 0.0
             for k in range(3):
-                lever_sim[k] = lever_rigid[k] + state_err[i, k] - soft * tmp[k]
+                lever_sim[k] = state_err[i, k] - soft * tmp[k]
+                dev2 += lever_sim[k] * lever_sim[k]
+            # the tip's deviation from the rigid lever stays within DEVIATION of the lever
+            # (a hand-off keeps up to HANDOFF_SHARE, the parent's lag adds PARENT_SHARE):
+            # the lever never passes through the joint, the turn stays under 64 degrees
+            cap = DEVIATION * lever_len
+            dscale = cap / np.sqrt(dev2) if dev2 > cap * cap else 1.0
+            for k in range(3):
+                lever_sim[k] = lever_rigid[k] + dscale * lever_sim[k]
             quat_between_into(lever_rigid, lever_sim, turn)
             quat_mul_into(turn, rigid_rot, final_rot)
             # The ground: a passive body does not swing into it (a tentacle or a tail lying

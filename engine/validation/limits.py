@@ -11,7 +11,8 @@ gap is by design; a gap of a third of the bone is a spine come apart.
 
 ``spine_chord`` (ratio): the distance between neighbouring spine joints over its rest
 length; the spine phase holds it in [0.9, 1.2] (Hecker et al. 2008, section 4.3.2,
-"10%/120%"). The measure is the largest departure from that range.
+"10%/120%"). The measure is the largest departure from that range, in rest lengths (a
+rest length under 1% of the creature's size counts as that 1%).
 """
 
 from __future__ import annotations
@@ -43,8 +44,12 @@ def ik_limits(rec, ctx) -> list[Measure]:
         tt = 2.0 * np.cross(u, v)
         joints = rec.world_pos[:, chain] - (v + rec.world_rot[:, chain, :1] * tt + np.cross(u, tt))
         length = np.linalg.norm(joints[:, 1:] - joints[:, :-1], axis=-1)
-        ratio = length / ctx.spine_rest_chord[None, :]
-        off = np.maximum(np.maximum(SPINE_SHRINK - ratio, ratio - SPINE_STRETCH), 0.0)
+        rest = ctx.spine_rest_chord[None, :]
+        # departure from [0.9, 1.2] x rest, over the rest chord floored at 1% of the size (a
+        # capture's zero-length spine bone has no ratio; it can only stretch)
+        floor = np.maximum(rest, 0.01 * ctx.scale)
+        off = np.maximum(np.maximum(SPINE_SHRINK * rest - length, length - SPINE_STRETCH * rest), 0.0) / floor
+        ratio = length / floor
         m = worst("spine_chord", off, "ratio", [c.body_names[b] for b in chain[1:]], rec.t)
         m.detail["min_ratio"] = float(ratio.min())
         m.detail["max_ratio"] = float(ratio.max())
