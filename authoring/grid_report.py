@@ -45,11 +45,11 @@ from engine.validation import thresholds as T
 THUMB = 64            # thumbnail side, px
 FILM = 150            # filmstrip frame side, px
 PLOTTED = 4           # failing metrics plotted per cell page
-#: Failing cells of one creature that get a filmstrip and plots (its worst first): a
+#: Failing cells of one creature that get a filmstrip and plots (its six worst): a
 #: matplotlib figure costs ~0.1-0.3 s, and a creature whose every cell fails should not
 #: cost a minute of pictures; the other failing cells' pages carry the numbers and the
 #: command that reproduces them.
-PICTURED = 3
+PICTURED = 6
 
 # -- pictures (in the worker) ---------------------------------------------------------------
 

@@ -293,6 +293,23 @@ def test_grid_serial_and_on_a_dask_cluster_agree():
     assert s["pass_rate"] == pytest.approx(s["pass"] / s["plays"])
 
 
+def test_ctrl_c_stops_and_keeps_what_is_done():
+    from engine.validation import grid as G
+
+    calls = []
+
+    def task(source, paths, variant):
+        calls.append(source.ref)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return G.cell_task(source, paths, variant)
+
+    run = G.run_grid([G.Source("random", "1"), G.Source("random", "2"), G.Source("random", "3")], [WAVE],
+                     task=task, workers=0, progress=False)
+    assert run.interrupted and calls == ["1", "2"]
+    assert run.cells and {c["creature"] for c in run.cells} == {"random_1"}
+
+
 def test_comparison_lists_regressions_first():
     from engine.validation import grid as G
 

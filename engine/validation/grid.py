@@ -194,7 +194,7 @@ def reproduce_command(source: Source, result) -> str:
         parts.append(f"--animations {result.animation_path}")
     if result.variant_id:
         parts.append(f"--variant {result.variant_id}")
-    parts.append("--out out/grid-cell --force")
+    parts.append("--out out/grid-cell --force --workers 0")
     return " ".join(parts)
 
 
@@ -242,7 +242,7 @@ def run_grid(sources: list[Source], paths: list[str], *, task=cell_task, workers
             for k, src in enumerate(sources):
                 out = task(src, paths, variant)
                 _collect(run, out)
-                bar.update(1)
+                _advance(bar, run)
                 if on_task:
                     on_task(k + 1, len(sources), out)
         else:
@@ -291,7 +291,7 @@ def _run_dask(run, sources, paths, task, workers, address, variant, bar, on_task
                         "source_kind": src.kind, "metrics": {}, "known": [], "plays": 0, "frames": 0,
                         "ms_per_tick": 0.0, "animation_path": "", "reproduce": ""}]}
                 _collect(run, out)
-                bar.update(1)
+                _advance(bar, run)
                 if on_task:
                     on_task(done, len(sources), out)
         except KeyboardInterrupt:
@@ -303,8 +303,16 @@ def _run_dask(run, sources, paths, task, workers, address, variant, bar, on_task
             cluster.close()
 
 
+def _advance(bar, run: GridRun) -> None:
+    bar.update(1)
+    bar.set_postfix_str(f"{len(run.cells)} cells", refresh=False)
+
+
 class _NoBar:
     def update(self, n: int) -> None:
+        pass
+
+    def set_postfix_str(self, s: str, refresh: bool = True) -> None:
         pass
 
     def close(self) -> None:
