@@ -293,11 +293,15 @@ class Character:
     def play(self, animation: Animation, variant: int | str | Variant | None = None, weight: float = 1.0,
              fade: float = 0.2, loop: bool | None = None, *, speed: float = 1.0, layer: int = 0,
              fade_out: float | None = None, crossfade: bool = True,
-             on_event: EventCallback | None = None) -> PlayHandle:
-        """Play ``animation`` (its ``variant``: index, id or Variant; default the first)."""
+             on_event: EventCallback | None = None, start_time: float = 0.0) -> PlayHandle:
+        """Play ``animation`` (its ``variant``: index, id or Variant; default the first),
+        from ``start_time`` seconds into it (a tool scrubbing to a time starts there)."""
+        if not (math.isfinite(start_time) and 0.0 <= start_time <= animation.length):
+            raise ValueError(f"start_time must be within 0..{animation.length} s, got {start_time!r}")
         clip = self._clip(animation, variant)
         return self.player.play(animation, payload=clip, weight=weight, fade=fade, fade_out=fade_out, loop=loop,
-                                speed=speed, layer=layer, crossfade=crossfade, on_event=on_event)
+                                speed=speed, layer=layer, crossfade=crossfade, on_event=on_event,
+                                start_time=float(start_time))
 
     def queue(self, animation: Animation, variant=None, weight: float = 1.0, fade: float = 0.2,
               loop: bool | None = None, *, speed: float = 1.0, layer: int = 0, fade_out: float | None = None,
