@@ -108,6 +108,17 @@ class Editor:
         self.message = document.load_error or ""
         self._shown = None
         self.refresh()
+        self.activate_first()
+
+    def activate_first(self) -> None:
+        """Make the active channel's first selected body, on the first creature it poses
+        anything on, the active body (what the tool starts with)."""
+        for k in range(len(self.preview)):
+            bodies = self.selected_bodies(k)
+            if len(bodies) and not self.preview.items[k].declined:
+                self.creature, self.body = k, int(bodies[0])
+                self._highlight()
+                return
 
     # -- state ---------------------------------------------------------------------------------
 
@@ -224,6 +235,9 @@ class Editor:
         self.selected_keys.clear()
         if self.body is not None and self.body not in set(self.selected_bodies(self.creature).tolist()):
             self.body = None
+            sel = self.selected_bodies(self.creature)
+            if len(sel):
+                self.body = int(sel[0])
         self._highlight()
 
     def selected_bodies(self, k: int, channel: str | None = None) -> np.ndarray:
@@ -702,6 +716,8 @@ class Editor:
             raise EditError(f"channel '{ch.name}' has no {kind} key {index}")
         k = keys[index]
         v = np.atleast_1d(np.asarray(value, float))
+        if kind == "rotation" and v.shape == (3,):   # a rotation vector in degrees (the curve editor's)
+            v = _quat_exp(np.radians(v))
         if space == "specialized" and kind != "weight":
             v = self._generalize_value(ch, kind, v, k.t if t is None else t)
         if kind == "rotation":
@@ -815,7 +831,7 @@ class Editor:
             qs_p, qs_r = M.specialize(single, pos[None], rot[None], table)
             g_p, _ = M.generalize(single, v.reshape(1, 3), qs_r, table)
             return g_p[0]
-        qs = v if v.shape == (4,) else _quat_exp(np.radians(v))
+        qs = v
         qs_p, _ = M.specialize(single, pos[None], rot[None], table)
         _, g_r = M.generalize(single, qs_p, qs.reshape(1, 4), table)
         return g_r[0]

@@ -535,6 +535,19 @@ class Renderer:
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
         self._resolved = True
 
+    def begin_overlay(self) -> None:
+        """Make the last drawn picture (antialiased, resolved) the target of 2-D drawing
+        on top of it: the authoring tool's panels are drawn here, so ``read_pixels``,
+        ``save_png`` and ``present`` show them. End with ``end_overlay``."""
+        gl = self._gl
+        self.window.switch_to()
+        self._resolve()
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._resolve_fbo)
+        gl.glViewport(0, 0, self.width, self.height)
+
+    def end_overlay(self) -> None:
+        self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
+
     def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
         """The last drawn picture as ``(height, width, 3) uint8``, top row first.
 
