@@ -129,6 +129,8 @@ class AuthorWindow:
         self._curve_drag = None
         self._rename = {}
         self._frames = 0
+        self.widgets: dict[str, tuple[float, float]] = {}
+        self.key_pixels: dict[tuple[str, int, int], tuple[float, float]] = {}
         config = pyglet.gl.Config(double_buffer=True, sample_buffers=0, samples=0)
         try:
             window = pyglet.window.Window(width, height, caption=title, resizable=True, config=config,
@@ -692,29 +694,50 @@ class AuthorWindow:
             self._try(ed.rename_channel, ch.name, text)
             self._rename.pop(ch.name, None)
         if imgui.begin_tab_bar("channel tabs"):
-            if imgui.begin_tab_item("Query")[0]:
+            opened = imgui.begin_tab_item("Query")[0]
+            self._rec("tab Query")
+            if opened:
                 self._query_editor(ch)
                 imgui.end_tab_item()
-            if imgui.begin_tab_item("Modes")[0]:
+            opened = imgui.begin_tab_item("Modes")[0]
+            self._rec("tab Modes")
+            if opened:
                 self._modes_editor(ch)
                 imgui.end_tab_item()
-            if imgui.begin_tab_item("Groups")[0]:
+            opened = imgui.begin_tab_item("Groups")[0]
+            self._rec("tab Groups")
+            if opened:
                 self._groups_editor(ch)
                 imgui.end_tab_item()
-            if imgui.begin_tab_item("Events")[0]:
+            opened = imgui.begin_tab_item("Events")[0]
+            self._rec("tab Events")
+            if opened:
                 self._events_editor(ch)
                 imgui.end_tab_item()
             imgui.end_tab_bar()
 
+    def _rec(self, name: str) -> None:
+        """Remember where the last widget is (window units, y down): tests click there."""
+        a, b = self.imgui.get_item_rect_min(), self.imgui.get_item_rect_max()
+        self.widgets[name] = (0.5 * (a.x + b.x), 0.5 * (a.y + b.y))
+
     def _combo(self, label, value, options, none_label=None):
         """A combo over ``options`` (plus a first 'none' entry when given); returns
-        (changed, value)."""
+        (changed, value). Its box and, while open, its items are recorded in ``widgets``."""
         imgui = self.imgui
         items = ([none_label] if none_label is not None else []) + list(options)
-        cur = items.index(none_label if value is None else value) if (value in items or value is None) else 0
-        changed, i = imgui.combo(label, cur, items)
-        out = items[i]
-        return changed, (None if none_label is not None and i == 0 else out)
+        shown = none_label if value is None else value
+        changed, out = False, value
+        opened = imgui.begin_combo(label, str(shown))
+        self._rec(label)
+        if opened:
+            for item in items:
+                if imgui.selectable(str(item), item == shown)[0]:
+                    changed = item != shown
+                    out = None if (none_label is not None and item == none_label) else item
+                self._rec(f"{label}/{item}")
+            imgui.end_combo()
+        return changed, out
 
     def _query_fields(self, q, *, secondary=False):
         imgui = self.imgui
@@ -1081,6 +1104,7 @@ class AuthorWindow:
             self.fit_curves = False
         unit = {"position": "m" if space == "specialized" else "q_g", "rotation": "deg",
                 "weight": "weight"}[kind]
+        self.key_pixels.clear()
         if implot.begin_plot(f"##curves {ch.name}", (-1, -1)):
             implot.setup_axes("time (s)", f"{kind} ({unit}, {space})")
             labels = ("x", "y", "z") if kind != "weight" else ("w",)
@@ -1111,6 +1135,8 @@ class AuthorWindow:
                     ident = 100 + i * 4 + c
                     moved, x, y, clicked, _hov, held = implot.drag_point(ident, float(k.t), float(kv[i, c]), col,
                                                                          7.0 if sel else 5.0)
+                    pix = implot.plot_to_pixels(float(k.t), float(kv[i, c]))
+                    self.key_pixels[(kind, i, c)] = (pix.x, pix.y)
                     if clicked:
                         if ctrl:
                             ed.selected_keys ^= {(kind, i)}
@@ -1122,7 +1148,17 @@ class AuthorWindow:
                 self._curve_drag = None
                 ed.end_gesture()
             self._mouse_over_curves = implot.is_plot_hovered()
+            lim = implot.get_plot_limits()
+            self.plot_limits = (lim.x.min, lim.x.max, lim.y.min, lim.y.max)
+            a, b = implot.get_plot_pos(), implot.get_plot_size()
+            self.plot_rect = (a.x, a.y, a.x + b.x, a.y + b.y)
             implot.end_plot()
+
+    def curve_pixel(self, t: float, v: float) -> tuple[float, float]:
+        """Where (time, value) is in the curve editor of the last frame (window units, y down)."""
+        tmin, tmax, vmin, vmax = self.plot_limits
+        x0, y0, x1, y1 = self.plot_rect
+        return (x0 + (t - tmin) / (tmax - tmin) * (x1 - x0), y1 - (v - vmin) / (vmax - vmin) * (y1 - y0))
 
     def _drag_key(self, kind, space, i, c, x, y, kv) -> None:
         """A key point dragged to (x time, y value of component c)."""

@@ -77,6 +77,9 @@ class Document:
     _steps: list[_Step] = field(default_factory=list)
     _index: int = 0
     _saved_animation: Animation | None = None
+    #: (text, animation) of every text saved from this document: untouched channels keep
+    #: the text they had there (the opened file's is ``original_text``).
+    _sources: list = field(default_factory=list)
     #: Called with the document after every change of ``animation`` (edit, undo, redo).
     on_change: object = None
 
@@ -200,11 +203,14 @@ class Document:
     def text(self) -> str:
         """The file text ``save`` would write (see the module docstring)."""
         anim = self.animation
+        sources = list(reversed(self._sources))
         if self.original_text is not None and self.load_error is None:
-            spliced = splice_text(self.original_text, self.original, anim)
-            if spliced is not None:
-                return spliced
-        return animation_to_text(anim)
+            sources.append((self.original_text, self.original))
+        for text, known in sources:
+            if known == anim:
+                return text
+        spliced = splice_text(sources, anim) if sources else None
+        return spliced if spliced is not None else animation_to_text(anim)
 
     def save(self, *, force: bool = False) -> str:
         """Write the animation to its own file (keeping a backup of the old one).
@@ -242,9 +248,10 @@ class Document:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, path)
+        if self.load_error is not None:
+            self.original_text, self.original = text, self.animation
+        self._sources.append((text, self.animation))
         self.path = path
-        self.original_text = text
-        self.original = self.animation
         self.load_error = None
         self._saved_animation = self.animation
         return path
@@ -291,27 +298,38 @@ def _channel_blocks(text: str, original: Animation) -> tuple[list[str], list[lis
     return header, blocks
 
 
-def splice_text(text: str, original: Animation, animation: Animation) -> str | None:
-    """The text of ``animation`` made from ``text`` (the file ``original`` was read from):
-    the header and every channel that did not change are copied as they were, the rest is
-    written by the engine's writer. None when the file cannot be split that way."""
-    if animation == original:
-        return text
-    parts = _channel_blocks(text, original)
-    if parts is None:
+def splice_text(sources, animation: Animation) -> str | None:
+    """The text of ``animation`` made from ``sources``, a list of (file text, the animation
+    it reads as), most preferred first: the header of the first source whose header fields
+    are the same, and each channel that is the same as one in a source, are copied as
+    they were there (comments and all); the rest is written by the engine's writer. None
+    when no source can be split into a header and channel blocks."""
+    split = []
+    for text, original in sources:
+        parts = _channel_blocks(text, original)
+        if parts is not None:
+            split.append((parts, original))
+    if not split:
         return None
-    header, blocks = parts
     fresh = animation_to_text(animation).splitlines(keepends=True)
     k = fresh.index("channels:\n")
     fresh_header = fresh[: k + 1]
     fresh_blocks = _split_fresh_channels(fresh[k + 1:])
-    same_header = all(getattr(animation, f) == getattr(original, f) for f in _HEADER_FIELDS)
-    out = list(header) if same_header else list(fresh_header)
-    if same_header and not any(re.match(r"^channels\s*:", h) for h in header):
-        return None
+    out = None
+    for (header, _blocks), original in split:
+        if all(getattr(animation, f) == getattr(original, f) for f in _HEADER_FIELDS):
+            out = list(header)
+            break
+    if out is None:
+        out = list(fresh_header)
     for ci, ch in enumerate(animation.channels):
-        old = _find_same(original, ch)
-        out += blocks[old] if old is not None else fresh_blocks[ci]
+        block = None
+        for (_header, blocks), original in split:
+            old = _find_same(original, ch)
+            if old is not None:
+                block = blocks[old]
+                break
+        out += block if block is not None else fresh_blocks[ci]
     result = "".join(out)
     try:
         if parse_animation_text(result) != animation:
