@@ -361,9 +361,12 @@ class AuthorWindow:
             return None
         segs, _ = self._gizmo_segments(goal)
         axis = self.axis
-        proj = [self.camera.project(np.array([a, b]), r.width, r.height)[0] for a, b in segs]
+        (gx, gy), = self.camera.project(goal[0], r.width, r.height)[0]
+        near_centre = math.hypot(gx - p[0], gy - p[1]) <= GRAB_PIXELS * r.height / 720.0
+        # An axis handle is the outer part of its line (the centre is the free move).
+        proj = [self.camera.project(np.array([a + 0.3 * (b - a), b]), r.width, r.height)[0] for a, b in segs]
         for a, ab in enumerate(proj):
-            if _seg_distance(p, ab[0], ab[1]) <= GRAB_PIXELS * r.height / 720.0:
+            if not near_centre and _seg_distance(p, ab[0], ab[1]) <= GRAB_PIXELS * r.height / 720.0:
                 axis = a
                 break
         else:

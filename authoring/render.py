@@ -30,6 +30,7 @@ No pillow needed: ``write_png`` encodes with zlib.
 from __future__ import annotations
 
 import ctypes
+import math
 import os
 import struct
 import sys
@@ -534,6 +535,27 @@ class Renderer:
                              gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
         self._resolved = True
+
+    def label_boxes(self) -> list[tuple[float, float, float, float]]:
+        """(x0, y0, x1, y1) picture boxes (y down from the top) of the labels of the last
+        frame (the creatures' names), for tests that check overlays do not overlap."""
+        out = []
+        for lab in self._labels:
+            if not lab.visible or not lab.text:
+                continue
+            x, y = lab.x, self.height - lab.y
+            w, h = lab.content_width, lab.content_height
+            out.append((x - 0.5 * w, y - h, x + 0.5 * w, y))
+        return out
+
+    def caption_height(self) -> int:
+        """Pixels from the top of the picture that the last drawn caption takes (its
+        margin included), 0 without one: other overlays start below it."""
+        cap = self._caption
+        if cap is None or not cap.visible or not cap.text:
+            return 0
+        margin = round(10 * self.height / 720.0)
+        return int(margin + math.ceil(cap.content_height))
 
     def begin_overlay(self) -> None:
         """Make the last drawn picture (antialiased, resolved) the target of 2-D drawing
