@@ -139,7 +139,11 @@ class AuthorWindow:
             window = pyglet.window.Window(width, height, caption=title, resizable=True, visible=visible)
         self.window = window
         fw, fh = window.get_framebuffer_size()
-        self.renderer = rd.Renderer(fw, fh, window=window)
+        # The 3-D picture is drawn only where the panels leave the window free, then
+        # composed with the panels into a window-sized picture (``renderer``).
+        x0, y0, x1, y1 = self._free_rect()
+        self.view = rd.Renderer(max(int(x1 - x0), 16), max(int(y1 - y0), 16), window=window)
+        self.renderer = rd.Compositor(fw, fh, window=window)
         self.ctx = imgui.create_context()
         self.plot_ctx = implot.create_context()
         imgui.get_io().set_ini_filename(None)      # no imgui.ini in the user's folder
@@ -160,24 +164,26 @@ class AuthorWindow:
         return LEFT_W * sx, MENU_H * sy, fw - RIGHT_W * sx, fh - BOTTOM_H * sy
 
     def reframe(self) -> None:
-        """Frame every preview creature inside the viewport the panels leave free."""
-        r = self.renderer
-        x0, y0, x1, y1 = self._free_rect()
-        fw, fh = r.width, r.height
-        fw_free, fh_free = max(x1 - x0, 50.0), max(y1 - y0, 50.0)
-        cam = self.editor.preview.scene.auto_camera(fw_free / fh_free)
-        # The same view in the whole window: as far back as the free part needs, the
-        # creatures slid to its centre.
-        cam.zoom(max(fh / fh_free, 1.0) * 1.12)   # and room for the labels
-        cx, cy = 0.5 * (x0 + x1) - 0.5 * fw, 0.5 * (y0 + y1) - 0.5 * fh
-        cam.pan(cx, -cy, fh)
+        """Frame every preview creature in the viewport the panels leave free."""
+        v = self.view
+        cam = self.editor.preview.scene.auto_camera(v.width / v.height)
+        cam.zoom(1.06)   # room for the labels above the back row
         self.camera = cam
+
+    def project(self, world) -> tuple[float, float]:
+        """Window point (x right, y down from the top, window units) of a world point."""
+        x0, y0, _, _ = self._free_rect()
+        (px, py), = self.camera.project(np.asarray(world, float), self.view.width, self.view.height)[0]
+        fw, fh = self.window.get_framebuffer_size()
+        return (x0 + px) * self.window.width / fw, (y0 + py) * self.window.height / fh
 
     # -- pyglet events (handlers return None: the imgui backend sees them too) -------------------
 
     def _pixel(self, x, y) -> tuple[float, float]:
+        """Pixel of the 3-D view (y down from its top) under window point (x, y), y up."""
         fw, fh = self.window.get_framebuffer_size()
-        return x * fw / max(self.window.width, 1), fh - y * fh / max(self.window.height, 1)
+        x0, y0, _, _ = self._free_rect()
+        return x * fw / max(self.window.width, 1) - x0, fh - y * fh / max(self.window.height, 1) - y0
 
     def on_mouse_press(self, x, y, button, modifiers):
         from pyglet.window import key, mouse
@@ -302,6 +308,8 @@ class AuthorWindow:
     def on_resize(self, w, h):
         fw, fh = self.window.get_framebuffer_size()
         self.renderer.resize(fw, fh)
+        x0, y0, x1, y1 = self._free_rect()
+        self.view.resize(max(int(x1 - x0), 16), max(int(y1 - y0), 16))
         return None
 
     _mouse_over_curves = False
@@ -312,7 +320,7 @@ class AuthorWindow:
     def click(self, x, y):
         """Activate the body under window point (x, y) (pyglet coordinates, y up)."""
         px, py = self._pixel(x, y)
-        r = self.renderer
+        r = self.view
         hit = sc.pick(self._scene(), self.camera, px, py, r.width, r.height)
         if hit is None:
             self.editor.activate(self.editor.creature, None)
@@ -345,7 +353,7 @@ class AuthorWindow:
         """What a left press at pixel ``px`` grabs: an external target, a manipulator
         axis, the active body, or nothing (orbit)."""
         ed = self.editor
-        r = self.renderer
+        r = self.view
         p = np.asarray(px, float)
         for k, item in enumerate(ed.preview.items):
             if item.declined:
@@ -382,7 +390,7 @@ class AuthorWindow:
     def _update_drag(self, px):
         d = self._drag
         ed = self.editor
-        r = self.renderer
+        r = self.view
         cam = self.camera
         p = np.asarray(px, float)
         delta = p - d["start"]
@@ -473,7 +481,10 @@ class AuthorWindow:
         imgui.new_frame()
         self._panels()
         imgui.render()
-        self.renderer.draw(self._scene(), self.camera)
+        scene = self._scene()
+        self.view.draw(scene, self.camera)
+        x0, _, _, y1 = self._free_rect()
+        self.renderer.compose(self.view, int(x0), int(self.renderer.height - y1), scene.background)
         self.renderer.begin_overlay()
         self.impl.render(imgui.get_draw_data())
         self.renderer.end_overlay()
@@ -518,6 +529,7 @@ class AuthorWindow:
         self.implot.destroy_context(self.plot_ctx)
         self.imgui.destroy_context(self.ctx)
         self.renderer.close()
+        self.view.close()
         self.window.close()
         pyglet.app.exit()
 
@@ -1290,28 +1302,37 @@ def _free_png(path: str) -> str:
 
 
 def measure_fps(editor: Editor, *, width: int = 1400, height: int = 800, frames: int = 60,
-                playing: bool = True) -> dict:
-    """Frames per second of the whole tool (runtime ticks of every creature, panels, 3-D
-    picture, pixels read back) off screen. For ``benchmarks/author.py``."""
+                playing: bool = True, read: bool = False) -> dict:
+    """Frames per second of the whole tool off screen: every creature ticked by the
+    runtime, the panels built, the 3-D view drawn, composed with the panels and copied to
+    the window (``present``, what the window does each frame), finished (``glFinish``);
+    with ``read`` the pixels are read back too (what a snapshot or a test does). For
+    ``benchmarks/author.py``."""
     import time as _time
 
     rd.load_pyglet(headless=True)
     win = AuthorWindow.create(editor, width=width, height=height, visible=False)
+    from pyglet import gl
+
     try:
         editor.play(playing)
         for _ in range(5):
             win.frame(1 / 60)
-        win.renderer.read_pixels()
         out = np.empty((win.renderer.height, win.renderer.width, 3), np.uint8)
         per = []
         for _ in range(frames):
             t0 = _time.perf_counter()
             win.frame(1 / 60)
-            win.renderer.read_pixels(out)
+            win.renderer.present()
+            if read:
+                win.renderer.read_pixels(out)
+            gl.glFinish()
             per.append(_time.perf_counter() - t0)
-        gl = win.renderer.gl_info()
+        info = win.renderer.gl_info()
+        samples = win.view.samples
     finally:
         win.close()
     ms = float(np.median(per)) * 1e3
     return {"creatures": len(editor.preview), "width": width, "height": height, "frames": frames,
-            "median_ms": ms, "fps": 1000.0 / ms, "p90_ms": float(np.percentile(per, 90)) * 1e3, "gl": gl}
+            "median_ms": ms, "fps": 1000.0 / ms, "p90_ms": float(np.percentile(per, 90)) * 1e3, "gl": info,
+            "samples": samples}

@@ -836,7 +836,35 @@ class Editor:
         _, g_r = M.generalize(single, qs_p, qs.reshape(1, 4), table)
         return g_r[0]
 
+    def _cached(self, what: str, fn, *key):
+        """``fn()`` memoized on the animation (immutable: edits make new ones), the active
+        creature, body and channel, and ``key``: the panels ask for the same curves every
+        frame while nothing changes."""
+        table = None
+        if self.body is not None and self.preview.bound(self.creature) is not None:
+            try:
+                single, tab = self.slot()
+            except EditError:
+                pass
+            else:
+                row = int(single.slot_target[0])
+                table = tab[row].tobytes() if row >= 0 else b""
+        full = (what, self.channel, self.creature, self.body, table, *key)
+        cache = self.__dict__.setdefault("_cache", {})
+        hit = cache.get(full)
+        if hit is not None and hit[0] is self.animation:
+            return hit[1]
+        value = fn()
+        if len(cache) > 64:
+            cache.clear()
+        cache[full] = (self.animation, value)
+        return value
+
     def curve(self, kind: str, space: str | None = None, samples: int = 121, name: str | None = None):
+        space = self.space if space is None else space
+        return self._cached("curve", lambda: self._curve(kind, space, samples, name), kind, space, samples, name)
+
+    def _curve(self, kind: str, space: str | None = None, samples: int = 121, name: str | None = None):
         """(times (n,), values (n, d)) of a channel's curve: generalized, or specialized onto
         the active body (positions in m, character space; rotations as a rotation vector in
         degrees; weights are the same in both)."""
@@ -872,6 +900,10 @@ class Editor:
         raise EditError(f"unknown key kind {kind!r}")
 
     def key_values(self, kind: str, space: str | None = None, name: str | None = None) -> np.ndarray:
+        space = self.space if space is None else space
+        return self._cached("keys", lambda: self._key_values(kind, space, name), kind, space, name)
+
+    def _key_values(self, kind: str, space: str | None = None, name: str | None = None) -> np.ndarray:
         """The keys' values as the curve editor plots them (see ``curve``)."""
         space = self.space if space is None else space
         ch = self._channel(name)
@@ -893,6 +925,9 @@ class Editor:
         return np.array(out, float).reshape(-1, width)
 
     def goal_path(self, samples: int = 64) -> np.ndarray | None:
+        return self._cached("path", lambda: self._goal_path(samples), samples)
+
+    def _goal_path(self, samples: int = 64) -> np.ndarray | None:
         """The active body's specialized goal positions over the whole animation
         (character space, (samples, 3)): the channel's curve drawn in 3D (P Fig. 2)."""
         ch = self.active_channel()

@@ -646,3 +646,113 @@ def measure_fps(renderer: Renderer, scene: sc.Scene, frames: int = 60,
         else:
             renderer._gl.glFinish()
     return frames / (time.perf_counter() - t0)
+
+
+# -- composing a window from a picture and 2-D panels ---------------------------------------------------
+
+
+class Compositor:
+    """A window-sized picture made of a ``Renderer``'s 3-D picture placed in a rectangle
+    and 2-D panels drawn over everything (the authoring tool): the 3-D renderer then only
+    shades the pixels the panels leave free, which is most of a software renderer's cost.
+
+    Same reading interface as ``Renderer``: ``read_pixels``, ``save_png``, ``present``,
+    ``gl_info``, ``width``/``height``."""
+
+    def __init__(self, width: int, height: int, *, window) -> None:
+        from pyglet import gl
+
+        self._gl = gl
+        self.window = window
+        self._size = (0, 0)
+        self.resize(width, height)
+
+    def resize(self, width: int, height: int) -> None:
+        gl = self._gl
+        w, h = max(int(width), 1), max(int(height), 1)
+        if (w, h) == self._size:
+            return
+        self.window.switch_to()
+        if self._size != (0, 0):
+            self._delete()
+        self.width, self.height = w, h
+        self._rb = gl.GLuint(0)
+        gl.glGenRenderbuffers(1, ctypes.byref(self._rb))
+        gl.glBindRenderbuffer(gl.GL_RENDERBUFFER, self._rb)
+        gl.glRenderbufferStorage(gl.GL_RENDERBUFFER, gl.GL_RGBA8, w, h)
+        self._fbo = gl.GLuint(0)
+        gl.glGenFramebuffers(1, ctypes.byref(self._fbo))
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glFramebufferRenderbuffer(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0, gl.GL_RENDERBUFFER, self._rb)
+        status = gl.glCheckFramebufferStatus(gl.GL_FRAMEBUFFER)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+        if status != gl.GL_FRAMEBUFFER_COMPLETE:
+            raise ViewerError(f"the window's framebuffer is incomplete (status {status:#x}) at {w} x {h}")
+        self._size = (w, h)
+        self._raw = np.empty((h, w, 3), dtype=np.uint8)
+        self._raw_ptr = ctypes.c_void_p(self._raw.ctypes.data)
+
+    def _delete(self) -> None:
+        gl = self._gl
+        gl.glDeleteFramebuffers(1, ctypes.byref(self._fbo))
+        gl.glDeleteRenderbuffers(1, ctypes.byref(self._rb))
+
+    def compose(self, picture: Renderer, x: int, y: int, background) -> None:
+        """Clear to ``background`` and copy ``picture`` (drawn already) with its lower left
+        corner at pixel (x, y) from the bottom left."""
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glViewport(0, 0, self.width, self.height)
+        gl.glClearColor(float(background[0]), float(background[1]), float(background[2]), 1.0)
+        gl.glClear(gl.GL_COLOR_BUFFER_BIT)
+        picture._resolve()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, picture._resolve_fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self._fbo)
+        gl.glBlitFramebuffer(0, 0, picture.width, picture.height, int(x), int(y), int(x) + picture.width,
+                             int(y) + picture.height, gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+    def begin_overlay(self) -> None:
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glViewport(0, 0, self.width, self.height)
+
+    def end_overlay(self) -> None:
+        self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
+
+    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._fbo)
+        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE, self._raw_ptr)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+        if out is None:
+            return self._raw[::-1].copy()
+        np.copyto(out, self._raw[::-1])
+        return out
+
+    def save_png(self, path) -> None:
+        write_png(path, self.read_pixels())
+
+    def present(self) -> None:
+        gl = self._gl
+        fw, fh = self.window.get_framebuffer_size()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
+        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh, gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+    def gl_info(self) -> str:
+        from pyglet.gl import gl_info
+
+        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+
+    def close(self) -> None:
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
+        self.window.switch_to()
+        self._delete()

@@ -167,8 +167,7 @@ def test_a_scale_mode_chosen_in_the_modes_tab_keeps_the_active_body_motion(gl, t
 
 def _colour_at(tool, k, body):
     item = tool.win.editor.preview.items[k]
-    r = tool.win.renderer
-    (x, y), = tool.win.camera.project(item.to_world(item.character.world_positions[body]), r.width, r.height)[0]
+    x, y = tool.win.project(item.to_world(item.character.world_positions[body]))   # headless: 1 unit = 1 px
     img = tool.pixels()
     patch = img[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2].reshape(-1, 3) / 255.0
     return np.median(patch, axis=0)
@@ -242,11 +241,7 @@ def test_keyboard_shortcuts_and_picking_in_the_viewport(gl, two, wave):
         # click the spider's body: it becomes the active creature
         spider = two[1]
         item = ed.preview.items[1]
-        r = tool.win.renderer
-        (x, y), = tool.win.camera.project(item.to_world(item.character.world_positions[0]), r.width, r.height)[0]
-        fw = tool.w.get_framebuffer_size()[0]
-        s = tool.w.width / fw
-        tool.click((x * s, y * s))
+        tool.click(tool.win.project(item.to_world(item.character.world_positions[0])))
         assert ed.creature == 1
         assert spider.name in ed.message
     finally:
@@ -260,11 +255,9 @@ def test_posing_by_dragging_the_active_body_is_one_step(gl, two, wave):
         ed.set_time(0.5)
         tool.frames(2)
         goal = tool.win._goal_world()
-        r = tool.win.renderer
-        (x, y), = tool.win.camera.project(goal[0], r.width, r.height)[0]
-        s = tool.w.width / tool.w.get_framebuffer_size()[0]
+        x, y = tool.win.project(goal[0])
         p0, _ = ed.specialize_now()
-        tool.drag((x * s, y * s), (x * s, y * s - 30))       # up the screen
+        tool.drag((x, y), (x, y - 30))       # up the screen
         p1, _ = ed.specialize_now()
         assert p1[2] > p0[2] + 0.01
         assert ed.doc.history()[-1].startswith("pose hand") and len(ed.doc.history()) == 2
