@@ -37,7 +37,7 @@ import numpy as np
 
 from authoring import render as rd
 from authoring import scene as sc
-from authoring.editor import EditError, Editor
+from authoring.editor import Editor
 from engine.anim.animation import BRANCH_PREDICATES, COUNT_PREDICATES, SIDE_CONSTRAINTS
 from engine.channels.modes import POSITION_MODES, ROTATION_MODES, SCALE_MODES, PositionSpec, RotationSpec
 from engine.errors import MenagerieError
@@ -467,6 +467,8 @@ class AuthorWindow:
     def frame(self, dt: float = 1 / 60) -> None:
         """Advance the editor, build the panels, draw the picture and the panels."""
         imgui = self.imgui
+        if self.closed:
+            return
         self.window.switch_to()
         try:
             self.editor.tick(dt)
@@ -489,12 +491,15 @@ class AuthorWindow:
         self.impl.render(imgui.get_draw_data())
         self.renderer.end_overlay()
         self._frames += 1
+        if self._close_after_frame:
+            self.close()
 
     def draw(self) -> None:
         """A frame, shown in the window."""
         self.frame(1 / 60)
-        self.window.switch_to()
-        self.renderer.present()
+        if not self.closed:
+            self.window.switch_to()
+            self.renderer.present()
 
     def on_draw(self):
         # pyglet's app loop draws through ``_tick``; a redraw request just presents.
@@ -504,8 +509,9 @@ class AuthorWindow:
         if self.closed:
             return
         self.frame(dt)
-        self.renderer.present()
-        self.window.flip()
+        if not self.closed:
+            self.renderer.present()
+            self.window.flip()
 
     def snapshot(self, path: str, frames: int = 2) -> str:
         """Render ``frames`` frames (ImGui lays windows out over two) and save the last."""
@@ -583,9 +589,11 @@ class AuthorWindow:
             if imgui.button("Save and close"):
                 if self._try(self.editor.save) is not None:
                     self._close_now()
+            self._rec("Save and close")
             imgui.same_line()
             if imgui.button("Discard and close"):
                 self._close_now()
+            self._rec("Discard and close")
             imgui.same_line()
             if imgui.button("Cancel"):
                 self._ask_close = False
@@ -593,10 +601,13 @@ class AuthorWindow:
             imgui.end_popup()
 
     def _close_now(self):
+        """Close after this frame (never inside it: the panels still use the context)."""
         self._ask_close = False
         self.want_close = True
         self.imgui.close_current_popup()
-        self.close()
+        self._close_after_frame = True
+
+    _close_after_frame = False
 
     def _menu(self) -> None:
         imgui = self.imgui
@@ -608,7 +619,10 @@ class AuthorWindow:
                 if ed.doc.load_error and imgui.menu_item("Save anyway (replace the broken file)", "", False)[0]:
                     self._try(ed.save, force=True)
                 if imgui.menu_item("Quit", "", False)[0]:
-                    self.on_close()
+                    if self.editor.doc.dirty:
+                        self._ask_close = True
+                    else:
+                        self._close_after_frame = True
                 imgui.end_menu()
             if imgui.begin_menu("Edit"):
                 if imgui.menu_item("Undo", "Ctrl-Z", False, ed.doc.can_undo)[0]:
@@ -1096,8 +1110,51 @@ class AuthorWindow:
             self.fit_curves = True
         if ch is None:
             return
+        self._tangent_row(ch)
         self._curve_editor(ch)
         del implot
+
+    def _tangent_row(self, ch) -> None:
+        """The selected key's tangents (per second; rotations: angular velocity, rad/s):
+        automatic, flat, or typed in."""
+        imgui = self.imgui
+        ed = self.editor
+        sel = sorted(i for k, i in ed.selected_keys if k == self._kind)
+        keys = ed.keys(self._kind)
+        if not sel or sel[-1] >= len(keys):
+            imgui.text_disabled("click a key to edit its tangents; Ctrl-click for several")
+            return
+        if imgui.button("Auto tangents"):
+            for i in sel:
+                self._try(ed.set_tangents, self._kind, i, tin=None, tout=None)
+        self._rec("Auto tangents")
+        imgui.same_line()
+        if imgui.button("Flat"):
+            self._try(ed.flatten_tangents, self._kind, sel)
+        self._rec("Flat")
+        if len(sel) != 1:
+            imgui.same_line()
+            imgui.text(f"{len(sel)} keys selected")
+            return
+        i = sel[0]
+        k = keys[i]
+        width = 1 if self._kind == "weight" else 3
+        for name, value in (("in", k.tin), ("out", k.tout)):
+            imgui.same_line()
+            imgui.set_next_item_width(200 if width == 3 else 70)
+            shown = list(value) if value is not None else [0.0] * width
+            label = f"{name}{'' if value is not None else ' (auto)'}###{name}"
+            if width == 3:
+                c, v = imgui.drag_float3(label, shown, 0.01)
+            else:
+                c, v0 = imgui.drag_float(label, shown[0], 0.01)
+                v = [v0]
+            if c:
+                self._try(ed.set_tangents, self._kind, i, **{f"t{name}": v}, coalesce=("tangent", ch.name, i))
+            if imgui.is_item_deactivated():
+                ed.end_gesture()
+        imgui.same_line()
+        imgui.text(f"key {i + 1}/{len(keys)} at {k.t:.3f} s")
 
     def _curve_editor(self, ch) -> None:
         imgui = self.imgui
@@ -1136,7 +1193,7 @@ class AuthorWindow:
                 for e in ch.events:
                     implot.tag_x(e.t, (0.6, 0.2, 0.8, 1.0), e.name)
             # playhead
-            c, t, _, _, held = implot.drag_line_x(1, ed.time, (0.1, 0.1, 0.1, 1.0), 1.5)
+            c, t, _, _, held = implot.drag_line_x(1, ed.time, (0.1, 0.1, 0.1, 1.0), 1.5, 0, False, False, False)
             if c:
                 ed.set_time(min(max(t, 0.0), ed.animation.length))
             # keys
@@ -1149,7 +1206,8 @@ class AuthorWindow:
                                                              else (0.2, 0.2, 0.2, 1.0))
                     ident = 100 + i * 4 + c
                     moved, x, y, clicked, _hov, held = implot.drag_point(ident, float(k.t), float(kv[i, c]), col,
-                                                                         7.0 if sel else 5.0)
+                                                                         7.0 if sel else 5.0, 0, False, False,
+                                                                         False)
                     pix = implot.plot_to_pixels(float(k.t), float(kv[i, c]))
                     self.key_pixels[(kind, i, c)] = (pix.x, pix.y)
                     if clicked:

@@ -359,9 +359,12 @@ class Editor:
         raise AssertionError
 
     def add_channel(self, name: str | None = None, query: Query | None = None, *,
-                    position: PositionSpec | None = PositionSpec("rest"),
-                    rotation: RotationSpec | None = RotationSpec("rest"), **fields) -> str:
+                    position: PositionSpec | None | str = "rest", rotation: RotationSpec | None | str = "rest",
+                    **fields) -> str:
+        """Add a channel (default: graspers, rest-relative position and rotation)."""
         q = query or Query(type="grasper")
+        position = PositionSpec(position) if isinstance(position, str) else position
+        rotation = RotationSpec(rotation) if isinstance(rotation, str) else rotation
         name = self._free_name(name or q.type)
         ch = ChannelDef(name=name, query=q, position=position, rotation=rotation, **fields)
         self._replace_animation(f"add channel {name}", channels=self.animation.channels + (ch,))
@@ -745,7 +748,7 @@ class Editor:
             return v
 
         keys[index] = Key(k.t, k.value, tangent(tin, k.tin), tangent(tout, k.tout))
-        self._set_keys(ch, kind, keys, f"tangent of {ch.name}", coalesce)
+        self._set_keys(ch, kind, keys, f"tangents of {ch.name}", coalesce)
 
     def flatten_tangents(self, kind: str, indices, name: str | None = None) -> None:
         """Zero tangents (a hold) on the given keys: one step."""

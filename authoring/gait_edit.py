@@ -42,7 +42,8 @@ class GaitEditor:
     # -- the file -----------------------------------------------------------------------------
 
     def open_style(self, name_or_path: str) -> None:
-        path = name_or_path if name_or_path.endswith((".yaml", ".yml")) else os.path.join(STYLE_DIR, f"{name_or_path}.yaml")
+        path = name_or_path if name_or_path.endswith((".yaml", ".yml")) else \
+            os.path.join(STYLE_DIR, f"{name_or_path}.yaml")
         with open(path, encoding="utf-8") as f:
             text = f.read()
         self.style = parse_style_text(text, path)

@@ -203,11 +203,9 @@ def _without(animation: Animation, muted) -> Animation:
     keep = tuple(c for c in animation.channels if c.name not in muted)
     if not keep:
         # Everything muted: play a channel with no effect so the creatures stand at rest.
-        from engine.anim.animation import ChannelDef
+        from engine.anim.animation import ChannelDef, Key
         from engine.channels.modes import RotationSpec
         from engine.query import Query
-
-        from engine.anim.animation import Key
         keep = (ChannelDef(name="(muted)", query=Query(type="root"), rotation=RotationSpec(mode="rest"),
                            weight_keys=(Key(0.0, (0.0,)),)),)
     return dataclasses.replace(animation, channels=keep, branches=animation.branches)

@@ -174,7 +174,6 @@ def _colour_at(tool, k, body):
 
 
 def test_a_query_chosen_in_the_query_tab_lights_up_the_right_bodies(gl, two, wave):
-    from authoring.preview import SELECTED_COLOR
 
     ed = Editor(Document.open(wave), two)
     tool = Tool(ed)
@@ -325,9 +324,10 @@ def test_engine_never_imports_authoring():
 
 
 def test_demo_overlays_never_overlap_headless(gl):
+    from window_checks import check_viewer_overlays
+
     from authoring import demo
     from authoring.viewer import ViewerWindow
-    from window_checks import check_viewer_overlays
 
     zoo = demo.Zoo(demo.library_creatures(("humanoid", "spider", "dog")), demo.library_animations())
     zoo.step(1 / 30)
@@ -361,3 +361,39 @@ def test_real_windows_under_xvfb(tmp_path):
     assert report["demo"]["caption_rows"][1] < report["demo"]["title_rows"][0]
     for name in ("demo_window.png", "author_window.png"):
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_closing_with_unsaved_changes_asks_first(gl, two, wave):
+    ed = Editor(Document.open(wave), two[:1])
+    tool = Tool(ed)
+    tool.win.on_close()                          # nothing unsaved: it closes
+    assert tool.win.closed
+    ed = Editor(Document.open(wave), two[:1])
+    tool = Tool(ed)
+    try:
+        ed.set_key("position", 0.25, (0.0, 0.0, 0.5))
+        tool.win.on_close()
+        tool.frames(2)
+        assert not tool.win.closed and tool.win._ask_close          # asked, still open
+        assert "Discard and close" in tool.win.widgets
+        tool.click(tool.win.widgets["Discard and close"])
+        assert tool.win.closed
+    finally:
+        tool.close()
+    assert wave.read_text() == open("animations/wave.yaml").read()   # nothing was written
+
+
+def test_tangents_of_a_selected_key_from_the_panel(gl, two, wave):
+    ed = Editor(Document.open(wave), two[:1])
+    tool = Tool(ed)
+    try:
+        x, y = tool.win.key_pixels[("position", 2, 0)]
+        tool.click((x, y))
+        assert ed.selected_keys == {("position", 2)}
+        tool.click(tool.win.widgets["Flat"])
+        k = ed.keys("position")[2]
+        assert k.tin == (0.0, 0.0, 0.0) and k.tout == (0.0, 0.0, 0.0)
+        tool.click(tool.win.widgets["Auto tangents"])
+        assert ed.keys("position")[2].tin is None
+    finally:
+        tool.close()
