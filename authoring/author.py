@@ -1308,19 +1308,44 @@ def load_creatures(specs, random_count: int = 0, seed: int = 1):
     return out
 
 
-def run_author(animation_path: str, creatures=(), *, random_count: int = 0, headless: bool = False,
-               snapshot: str | None = None, width: int = 1400, height: int = 800, time: float | None = None,
-               channel: str | None = None, help_panel: bool = False, overwrite: bool = False) -> int:
+def author_command(cell: dict) -> str | None:
+    """The ``menagerie author`` command that opens a validation-grid cell (its animation,
+    its creature, its variant) at the time of its worst frame; None when the cell has no
+    animation file or creature to name."""
+    anim = cell.get("animation_path")
+    creature = cell.get("creature_args")
+    if not anim or not creature:
+        return None
+    parts = ["menagerie author", anim, creature]
+    if cell.get("variant_id"):
+        parts.append(f"--variant {cell['variant_id']}")
+    worst = cell.get("worst") or {}
+    if worst.get("time") is not None:
+        parts.append(f"--time {float(worst['time']):.3f}")
+    return " ".join(parts)
+
+
+def run_author(animation_path: str, creatures=(), *, random_count: int = 0, first_seed: int = 1,
+               headless: bool = False, snapshot: str | None = None, width: int = 1400, height: int = 800,
+               time: float | None = None, channel: str | None = None, variant: str | None = None,
+               help_panel: bool = False, overwrite: bool = False) -> int:
     """``menagerie author``: open the tool (or, headless, write one frame to ``snapshot``)."""
     from authoring.document import Document
 
     if snapshot is not None and os.path.exists(snapshot) and not overwrite:
         raise MenagerieError(f"{snapshot} exists (pass --force to overwrite it)")
-    cs = load_creatures(creatures, random_count) if (creatures or random_count) else default_creatures()
+    cs = load_creatures(creatures, random_count, first_seed) if (creatures or random_count) \
+        else default_creatures()
     doc = Document.open(animation_path)
     editor = Editor(doc, cs)
     if channel is not None:
         editor.select_channel(channel)
+    if variant is not None:
+        named = [k for k in range(len(editor.preview)) if variant in [v for v, _ in editor.variants(k)]]
+        if not named:
+            raise MenagerieError(f"no preview creature has a variant '{variant}' of {doc.animation.name}")
+        for k in named:
+            editor.set_variant(k, variant)
     if time is not None:
         editor.set_time(time)
     if headless or snapshot is not None:

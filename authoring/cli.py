@@ -4,10 +4,11 @@ The ``menagerie`` console script:
 
     menagerie demo [--headless] [--gaits] [--out DIR]   the zoo (window, or PNGs without a display)
     menagerie view FILE [--snapshot OUT.png]     look at a creature file
-    menagerie author ANIM.yaml [CREATURE...] [--random N] [--time T] [--headless --snapshot OUT.png]
+    menagerie author ANIM.yaml [CREATURE...] [--random N] [--time T] [--variant V] [--headless --snapshot OUT.png]
                                                  the authoring tool (a new animation if ANIM does not exist)
     menagerie play CREATURE ANIM [--snapshot OUT.png | --gif OUT.gif] [--time T]
                                                  one animation on one creature
+    menagerie grid [--library] [--random N] ...  the validation grid and its report
     menagerie creatures list|generate|from-bvh   the engine's batch commands (engine.cli)
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
@@ -60,9 +61,10 @@ def cmd_author(args: argparse.Namespace) -> int:
     from authoring.author import run_author
 
     creatures = list(args.creatures) + list(args.creatures_opt or [])
-    return run_author(args.animation, creatures, random_count=args.random, headless=args.headless,
-                      snapshot=args.snapshot, width=args.width, height=args.height, time=args.time,
-                      channel=args.channel, help_panel=args.help_panel, overwrite=args.force)
+    return run_author(args.animation, creatures, random_count=args.random, first_seed=args.first_seed,
+                      headless=args.headless, snapshot=args.snapshot, width=args.width, height=args.height,
+                      time=args.time, channel=args.channel, variant=args.variant, help_panel=args.help_panel,
+                      overwrite=args.force)
 
 
 def cmd_play(args: argparse.Namespace) -> int:
@@ -75,7 +77,9 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 
 def add_tool_commands(sub) -> None:
-    """The commands that draw: demo, view, author, play."""
+    """The commands that draw: demo, view, author, play, grid (its report has pictures)."""
+    from authoring.grid_report import add_grid_parser
+
     demo = sub.add_parser("demo", help="the creature zoo, animated")
     demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
     demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
@@ -96,6 +100,9 @@ def add_tool_commands(sub) -> None:
     author.add_argument("--creatures", dest="creatures_opt", nargs="+", metavar="CREATURE",
                         help="the same, as an option (what the grid's report prints)")
     author.add_argument("--random", type=int, default=0, metavar="N", help="add N random creatures")
+    author.add_argument("--first-seed", type=int, default=1, metavar="S",
+                        help="seed of the first random creature (the next ones S+1, ...)")
+    author.add_argument("--variant", default=None, help="play this variant (id) on the creatures that have it")
     author.add_argument("--time", type=float, default=None, metavar="T", help="open at time T (s)")
     author.add_argument("--channel", default=None, help="open with this channel selected")
     author.add_argument("--headless", action="store_true", help="no window: render one frame (see --snapshot)")
@@ -114,6 +121,8 @@ def add_tool_commands(sub) -> None:
     play.add_argument("--time", type=float, default=None, help="snapshot time, s (default: half the length)")
     play.add_argument("--force", action="store_true", help="overwrite existing output files")
     play.set_defaults(func=cmd_play)
+
+    add_grid_parser(sub)
 
 
 def build_parser() -> argparse.ArgumentParser:

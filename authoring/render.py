@@ -97,6 +97,13 @@ def pyglet_is_headless() -> bool:
 
 def write_png(path, rgb: np.ndarray) -> None:
     """Write an ``(h, w, 3) uint8`` image (top row first) as an 8-bit RGB PNG."""
+    data = png_bytes(rgb)
+    with open(path, "wb") as f:
+        f.write(data)
+
+
+def png_bytes(rgb: np.ndarray) -> bytes:
+    """An ``(h, w, 3) uint8`` image (top row first) encoded as an 8-bit RGB PNG."""
     img = np.ascontiguousarray(rgb, dtype=np.uint8)
     if img.ndim != 3 or img.shape[2] != 3:
         raise ValueError(f"write_png needs an (h, w, 3) uint8 image, got shape {img.shape}")
@@ -110,10 +117,8 @@ def write_png(path, rgb: np.ndarray) -> None:
                 + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF))
 
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
-    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
             + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)) + chunk(b"IEND", b""))
-    with open(path, "wb") as f:
-        f.write(data)
 
 
 # -- shaders -----------------------------------------------------------------------------------

@@ -29,6 +29,7 @@ new combination of playing clips (binding and IK plans are built once and cached
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numba
@@ -44,6 +45,7 @@ from engine.anim.variants import Variant
 from engine.errors import MenagerieError
 from engine.ik.plan import DEFAULT_PARAMS, IKParams, plan_for
 from engine.jiggle.rig import JiggleRig
+from engine.mathx import quat_mul_batch_into, quat_rotate_batch_into, quat_rotate_inv_into
 from engine.model.creature import Creature
 
 STAGES = ("player", "sample", "blend", "gait", "ik", "jiggle", "output")
@@ -177,9 +179,7 @@ class Character:
         self._bind_views()
         self.set_placement(position, heading, teleport=True)
         n = creature.nbody
-        self._inv_bind = np.zeros((n, 4, 4))
-        for b in range(n):
-            self._inv_bind[b] = np.linalg.inv(_pose_matrix(creature.body_rest_pos[b], creature.body_rest_rot[b]))
+        self._inv_bind = _inverse_bind(creature)
         self._skin = np.zeros((n, 4, 4))
         self._frame = 0
         #: The locomotion controller (``engine.gait.GaitController``), made by the first
@@ -235,9 +235,11 @@ class Character:
     def _snap_world(self) -> None:
         """World pose = placement x current character-space pose; passive motion reset."""
         s, r = self._stack, self._row
-        for b in range(self.creature.nbody):
-            s.world_rot[r, b] = _qmul(s.place_rot[r], s.char_rot[r, b])
-            s.world_pos[r, b] = s.place_pos[r] + _qrot(s.place_rot[r], s.char_pos[r, b])
+        n = self.creature.nbody
+        place = np.repeat(s.place_rot[r][None], n, axis=0)
+        quat_mul_batch_into(place, s.char_rot[r], s.world_rot[r])
+        quat_rotate_batch_into(place, s.char_pos[r], s.world_pos[r])
+        s.world_pos[r] += s.place_pos[r]
         s.jig_err[r] = 0.0
         s.jig_err_vel[r] = 0.0
         s.jig_active[r] = False
@@ -295,10 +297,12 @@ class Character:
              fade_out: float | None = None, crossfade: bool = True,
              on_event: EventCallback | None = None, start_time: float = 0.0) -> PlayHandle:
         """Play ``animation`` (its ``variant``: index, id or Variant; default the first),
-        from ``start_time`` seconds into it (a tool scrubbing to a time starts there)."""
-        if not (math.isfinite(start_time) and 0.0 <= start_time <= animation.length):
-            raise ValueError(f"start_time must be within 0..{animation.length} s, got {start_time!r}")
+        from ``start_time`` seconds into the clip (0: its start; a game joining a clip
+        mid-way, or a tool scrubbing)."""
         clip = self._clip(animation, variant)
+        if not (isinstance(start_time, (int, float)) and math.isfinite(start_time)
+                and 0.0 <= start_time <= animation.length):
+            raise ValueError(f"start_time must be within the clip (0..{animation.length:g} s), got {start_time!r}")
         return self.player.play(animation, payload=clip, weight=weight, fade=fade, fade_out=fade_out, loop=loop,
                                 speed=speed, layer=layer, crossfade=crossfade, on_event=on_event,
                                 start_time=float(start_time))
@@ -390,13 +394,12 @@ def _fill_external(char: Character, clip: _Clip, table_row: np.ndarray) -> None:
     if clip.n_ext == 0:
         return
     s, r = char._stack, char._row
-    inv = np.array([s.place_rot[r, 0], -s.place_rot[r, 1], -s.place_rot[r, 2], -s.place_rot[r, 3]])
     for k, name in enumerate(clip.bound.target_names):
         p = char._targets.get(name)
         if p is None:
             table_row[k] = default_target(clip.animation, char.creature, name)
         else:
-            table_row[k] = _qrot(inv, p - s.place_pos[r])
+            quat_rotate_inv_into(s.place_rot[r], p - s.place_pos[r], table_row[k])
 
 
 def _sample_character(char: Character) -> None:
@@ -527,6 +530,32 @@ def _qrot(q, v):
     u = np.asarray(q[1:], dtype=float)
     t = 2.0 * np.cross(u, v)
     return np.asarray(v, dtype=float) + q[0] * t + np.cross(u, t)
+
+
+def _inverse_bind(c: Creature) -> np.ndarray:
+    """(nbody, 4, 4) inverse of each body's rest transform [R p; 0 1]: [R^T, -R^T p]
+    (cached per creature: immutable, shared by every character of it)."""
+    hit = _INV_BIND.get(c)
+    if hit is None:
+        R = quat_to_matrix_batch(c.body_rest_rot)
+        hit = np.zeros((c.nbody, 4, 4))
+        hit[:, :3, :3] = np.transpose(R, (0, 2, 1))
+        hit[:, :3, 3] = -np.einsum("bji,bj->bi", R, c.body_rest_pos)
+        hit[:, 3, 3] = 1.0
+        hit.flags.writeable = False
+        _INV_BIND[c] = hit
+    return hit
+
+
+_INV_BIND: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def quat_to_matrix_batch(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) rotation matrices of (n, 4) unit quaternions (w, x, y, z)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], 1)
 
 
 def _pose_matrix(pos, rot) -> np.ndarray:

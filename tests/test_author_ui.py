@@ -300,6 +300,16 @@ def test_author_headless_snapshot_and_play(gl, tmp_path):
     assert again.returncode == 2 and "exists" in again.stderr
     r = _menagerie("author", "animations/wave.yaml", "no_such_creature", "--snapshot", str(tmp_path / "x.png"))
     assert r.returncode == 2 and "no_such_creature" in r.stderr
+    # the validation grid's cell pages print this command: the cell's creature, variant and worst time
+    from authoring.author import author_command
+
+    cell = {"animation_path": "animations/wave.yaml", "creature_args": "--random 1 --first-seed 4",
+            "variant_id": "", "worst": {"time": 0.75}}
+    cmd = author_command(cell)
+    assert cmd == "menagerie author animations/wave.yaml --random 1 --first-seed 4 --time 0.750"
+    r = _menagerie(*cmd.split()[1:], "--creatures", "creatures/humanoid.yaml", "--variant", "hand_r",
+                   "--snapshot", str(tmp_path / "cell.png"))
+    assert r.returncode == 0, r.stderr
     png, gif = tmp_path / "p.png", tmp_path / "p.gif"
     r = _menagerie("play", "spider", "animations/wave.yaml", "--snapshot", str(png), "--gif", str(gif))
     assert r.returncode == 0, r.stderr

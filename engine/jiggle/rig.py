@@ -22,6 +22,7 @@ All three are in ``flexibility`` and can be overridden per body with ``JiggleRig
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,8 +117,12 @@ class JiggleRig:
 
     @classmethod
     def for_creature(cls, creature: Creature) -> JiggleRig:
-        freq, zeta = flexibility(creature)
-        return cls._make(creature, freq, zeta)
+        """The creature's default rig (made once per creature and shared: it is read-only)."""
+        hit = _DEFAULT_RIGS.get(creature)
+        if hit is None:
+            freq, zeta = flexibility(creature)
+            hit = _DEFAULT_RIGS[creature] = cls._make(creature, freq, zeta)
+        return hit
 
     @classmethod
     def _make(cls, creature, freq, zeta) -> JiggleRig:
@@ -141,6 +146,9 @@ class JiggleRig:
         if np.any(~np.isfinite(freq)) or np.any(freq < 0) or np.any(~np.isfinite(zeta)) or np.any(zeta <= 0):
             raise ValueError("frequencies must be finite and >= 0, damping ratios finite and > 0")
         return JiggleRig._make(self.creature, freq, zeta)
+
+
+_DEFAULT_RIGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 class JiggleState:

@@ -1,0 +1,47 @@
+"""The ground: box corners below it, and standing feet that slide.
+
+``below_ground`` (height): the deepest any corner of any body box goes below the terrain
+(flat z = 0 in the grid), over the creature's height. A foot box resting on the ground
+has its lowest corners at 0; a ground-relative channel at z_g = 1 rests a box on the
+ground, not in it.
+
+``standing_slide`` (leg length): while a foot stands (the standing stage holds it at its
+rest spot: full weight, goal exactly there), how far its contact point (the centre of the
+foot box's lowest face at rest, carried by the foot's pose) moves from where that stance
+began, over the leg's length. A planted foot must not skate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from engine.validation import _kernels as K
+from engine.validation.measure import Measure, worst
+
+
+def ground(rec, ctx) -> list[Measure]:
+    c = rec.creature
+    n = rec.nframe
+    if n == 0:
+        return []
+    low = K.box_min_z(rec.world_pos, rec.world_rot, c.body_extent)         # (n, nb)
+    depth = np.maximum(-low, 0.0) / ctx.height
+    out = [worst("below_ground", depth, "height", c.body_names, rec.t)]
+    feet = c.leg_foot
+    if feet.size == 0:
+        out.append(Measure("standing_slide", 0.0, "leg"))
+        return out
+    goal = rec.goal_pos[:, feet]
+    standing = (rec.goal_pw[:, feet] >= 1.0) & (np.linalg.norm(goal - c.body_rest_pos[feet][None], axis=-1) < 1e-9)
+    u = rec.world_rot[:, feet, 1:]
+    v = ctx.foot_contact_local[None, :, :]
+    tt = 2.0 * np.cross(u, v)
+    contact = rec.world_pos[:, feet] + v + rec.world_rot[:, feet, :1] * tt + np.cross(u, tt)
+    # each standing frame against the first frame of its stance (the latest frame where
+    # standing began, carried forward)
+    began = standing & ~np.vstack([np.zeros((1, feet.size), bool), standing[:-1]])
+    first = np.maximum.accumulate(np.where(began, np.arange(n)[:, None], 0), axis=0)
+    start = np.take_along_axis(contact, first[..., None], axis=0)
+    slide = np.where(standing, np.linalg.norm(contact - start, axis=-1), 0.0) / ctx.leg_length[None, :]
+    out.append(worst("standing_slide", slide, "leg", [c.body_names[f] for f in feet], rec.t))
+    return out
