@@ -1175,10 +1175,10 @@ class AuthorWindow:
             implot.set_next_axes_to_fit()
             self.fit_curves = False
         unit = {"position": "m" if space == "specialized" else "q_g", "rotation": "deg",
-                "weight": "weight"}[kind]
+                "weight": "0..1"}[kind]
         self.key_pixels.clear()
         if implot.begin_plot(f"##curves {ch.name}", (-1, -1)):
-            implot.setup_axes("time (s)", f"{kind} ({unit}, {space})")
+            implot.setup_axes("time (s)", f"{unit}, {space[:4]}.")
             labels = ("x", "y", "z") if kind != "weight" else ("w",)
             for c in range(values.shape[1]):
                 spec = implot.Spec()

@@ -173,7 +173,54 @@ def _mat_gl(m: np.ndarray) -> tuple[float, ...]:
 # -- the renderer --------------------------------------------------------------------------------
 
 
-class Renderer:
+class _Picture:
+    """Reading out a finished picture, shared by ``Renderer`` and ``Compositor``: the
+    subclass gives ``_gl``, ``window``, ``width``, ``height``, ``_raw`` (h, w, 3) uint8 with
+    its pointer ``_raw_ptr``, and ``_picture_fbo()`` (the single-sampled framebuffer
+    holding the picture)."""
+
+    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The last drawn picture as ``(height, width, 3) uint8``, top row first.
+
+        Pass ``out`` (that shape and dtype) to have it filled instead of a new array.
+        """
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._picture_fbo())
+        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE,
+                        self._raw_ptr)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+        if out is None:
+            return self._raw[::-1].copy()
+        if out.shape != self._raw.shape or out.dtype != np.uint8:
+            raise ValueError(f"out must be {self._raw.shape} uint8, got {out.shape} {out.dtype}")
+        np.copyto(out, self._raw[::-1])
+        return out
+
+    def save_png(self, path) -> None:
+        """Write the last drawn picture to ``path`` as PNG."""
+        write_png(path, self.read_pixels())
+
+    def present(self) -> None:
+        """Copy the picture into the window's own framebuffer (interactive use)."""
+        gl = self._gl
+        fbo = self._picture_fbo()
+        fw, fh = self.window.get_framebuffer_size()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
+        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh,
+                             gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+    def gl_info(self) -> str:
+        """Renderer and version strings of the GL context (for reports)."""
+        from pyglet.gl import gl_info
+
+        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+
+
+class Renderer(_Picture):
     """Draws scenes into a ``width`` x ``height`` picture (see the module docstring).
 
     Args:
@@ -575,46 +622,9 @@ class Renderer:
     def end_overlay(self) -> None:
         self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
 
-    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
-        """The last drawn picture as ``(height, width, 3) uint8``, top row first.
-
-        Pass ``out`` (that shape and dtype) to have it filled instead of a new array.
-        """
-        gl = self._gl
-        self.window.switch_to()
+    def _picture_fbo(self):
         self._resolve()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._resolve_fbo)
-        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
-        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE,
-                        self._raw_ptr)
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
-        if out is None:
-            return self._raw[::-1].copy()
-        if out.shape != self._raw.shape or out.dtype != np.uint8:
-            raise ValueError(f"out must be {self._raw.shape} uint8, got {out.shape} {out.dtype}")
-        np.copyto(out, self._raw[::-1])
-        return out
-
-    def save_png(self, path) -> None:
-        """Write the last drawn picture to ``path`` as PNG."""
-        write_png(path, self.read_pixels())
-
-    def present(self) -> None:
-        """Copy the picture into the window's own framebuffer (interactive use)."""
-        gl = self._gl
-        self._resolve()
-        fw, fh = self.window.get_framebuffer_size()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._resolve_fbo)
-        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
-        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh,
-                             gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
-        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
-
-    def gl_info(self) -> str:
-        """Renderer and version strings of the GL context (for reports)."""
-        from pyglet.gl import gl_info
-
-        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+        return self._resolve_fbo
 
 
 # -- one-shot pictures -------------------------------------------------------------------------------
@@ -656,7 +666,7 @@ def measure_fps(renderer: Renderer, scene: sc.Scene, frames: int = 60,
 # -- composing a window from a picture and 2-D panels ---------------------------------------------------
 
 
-class Compositor:
+class Compositor(_Picture):
     """A window-sized picture made of a ``Renderer``'s 3-D picture placed in a rectangle
     and 2-D panels drawn over everything (the authoring tool): the 3-D renderer then only
     shades the pixels the panels leave free, which is most of a software renderer's cost.
@@ -727,33 +737,8 @@ class Compositor:
     def end_overlay(self) -> None:
         self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
 
-    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
-        gl = self._gl
-        self.window.switch_to()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._fbo)
-        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
-        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE, self._raw_ptr)
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
-        if out is None:
-            return self._raw[::-1].copy()
-        np.copyto(out, self._raw[::-1])
-        return out
-
-    def save_png(self, path) -> None:
-        write_png(path, self.read_pixels())
-
-    def present(self) -> None:
-        gl = self._gl
-        fw, fh = self.window.get_framebuffer_size()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._fbo)
-        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
-        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh, gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
-        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
-
-    def gl_info(self) -> str:
-        from pyglet.gl import gl_info
-
-        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+    def _picture_fbo(self):
+        return self._fbo
 
     def close(self) -> None:
         if getattr(self, "_closed", False):
