@@ -148,6 +148,7 @@ class AuthorWindow:
         self.plot_ctx = implot.create_context()
         imgui.get_io().set_ini_filename(None)      # no imgui.ini in the user's folder
         imgui.style_colors_light()
+        implot.get_style().fit_padding = (0.02, 0.08)   # keys at the top and bottom stay inside
         self.impl = pyglet_backend.create_renderer(window)
         window.push_handlers(self)                 # after the backend: we see events first
         self.reframe()
@@ -932,7 +933,9 @@ class AuthorWindow:
         ed = self.editor
         anim = ed.animation
         if imgui.begin_tab_bar("asset tabs"):
-            if imgui.begin_tab_item("Animation")[0]:
+            opened = imgui.begin_tab_item("Animation")[0]
+            self._rec("tab Animation")
+            if opened:
                 text = self._rename.get("anim name", anim.name)
                 _, text = imgui.input_text("name", text)
                 self._rename["anim name"] = text
@@ -976,10 +979,14 @@ class AuthorWindow:
                         if imgui.is_item_deactivated_after_edit() or (c and not imgui.is_item_active()):
                             self._try(ed.set_target_default, name, v)
                 imgui.end_tab_item()
-            if imgui.begin_tab_item("Creatures")[0]:
+            opened = imgui.begin_tab_item("Creatures")[0]
+            self._rec("tab Creatures")
+            if opened:
                 self._creatures_panel()
                 imgui.end_tab_item()
-            if imgui.begin_tab_item("Gaits")[0]:
+            opened = imgui.begin_tab_item("Gaits")[0]
+            self._rec("tab Gaits")
+            if opened:
                 self._gait_panel()
                 imgui.end_tab_item()
             imgui.end_tab_bar()
@@ -1178,7 +1185,7 @@ class AuthorWindow:
                 "weight": "0..1"}[kind]
         self.key_pixels.clear()
         if implot.begin_plot(f"##curves {ch.name}", (-1, -1)):
-            implot.setup_axes("time (s)", f"{unit}, {space[:4]}.")
+            implot.setup_axes("time (s)", unit if space == "generalized" else f"{unit} on the body")
             labels = ("x", "y", "z") if kind != "weight" else ("w",)
             for c in range(values.shape[1]):
                 spec = implot.Spec()

@@ -50,12 +50,22 @@ class PreviewCreature:
     def name(self) -> str:
         return self.creature.name
 
+    def placed(self, p) -> np.ndarray:
+        """Character-space points ((3,) or (n, 3)) in the runtime's world: the character's
+        placement (it moves when the gait preview walks it) applied."""
+        ch = self.character
+        return np.asarray(p, float) @ sc.quat_to_matrix(ch.rotation).T + ch.position
+
     def to_world(self, p) -> np.ndarray:
-        """A character-space point as drawn in the viewport (the actor's offset and scale)."""
-        return self.actor.offset + self.actor.scale * np.asarray(p, float)
+        """Character-space points as drawn in the viewport (placement, then the actor's
+        offset and scale)."""
+        return self.actor.offset + self.actor.scale * self.placed(p)
 
     def to_character(self, w) -> np.ndarray:
-        return (np.asarray(w, float) - self.actor.offset) / self.actor.scale
+        """The inverse of ``to_world``."""
+        ch = self.character
+        return ((np.asarray(w, float) - self.actor.offset) / self.actor.scale - ch.position) @ \
+            sc.quat_to_matrix(ch.rotation)
 
 
 class Preview:
@@ -96,7 +106,7 @@ class Preview:
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise MenagerieError(f"target '{name}' must be 3 finite numbers, got {position!r}")
         self.items[k].targets[name] = p.copy()
-        self.items[k].character.set_target(name, p)
+        self.items[k].character.set_target(name, self.items[k].placed(p))
 
     # -- playing ------------------------------------------------------------------------------
 
@@ -127,7 +137,7 @@ class Preview:
                     except BindError:
                         item.variant = None      # that variant is gone after the edit
             for name in played.target_names:
-                ch.set_target(name, self.target_position(k, name))
+                ch.set_target(name, item.placed(self.target_position(k, name)))
             if item.declined is not None:
                 ch.stop(fade=0.0)
                 item.handle = None
