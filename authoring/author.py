@@ -107,7 +107,8 @@ class AuthorWindow:
 
     @classmethod
     def create(cls, editor: Editor, *, width: int = 1400, height: int = 800, visible: bool = True,
-               title: str = "Menagerie author") -> AuthorWindow:
+               title: str = "Menagerie author", samples: int = 4) -> AuthorWindow:
+        """Open the window over ``editor``; ``samples``: multisampling of the 3-D view."""
         import pyglet
 
         if pyglet.options["headless"]:
@@ -142,7 +143,7 @@ class AuthorWindow:
         # The 3-D picture is drawn only where the panels leave the window free, then
         # composed with the panels into a window-sized picture (``renderer``).
         x0, y0, x1, y1 = self._free_rect()
-        self.view = rd.Renderer(max(int(x1 - x0), 16), max(int(y1 - y0), 16), window=window)
+        self.view = rd.Renderer(max(int(x1 - x0), 16), max(int(y1 - y0), 16), window=window, samples=samples)
         self.renderer = rd.Compositor(fw, fh, window=window)
         self.ctx = imgui.create_context()
         self.plot_ctx = implot.create_context()
@@ -1335,7 +1336,7 @@ def author_command(cell: dict) -> str | None:
 def run_author(animation_path: str, creatures=(), *, random_count: int = 0, first_seed: int = 1,
                headless: bool = False, snapshot: str | None = None, width: int = 1400, height: int = 800,
                time: float | None = None, channel: str | None = None, variant: str | None = None,
-               help_panel: bool = False, overwrite: bool = False) -> int:
+               help_panel: bool = False, overwrite: bool = False, samples: int = 4) -> int:
     """``menagerie author``: open the tool (or, headless, write one frame to ``snapshot``)."""
     from authoring.document import Document
 
@@ -1357,7 +1358,7 @@ def run_author(animation_path: str, creatures=(), *, random_count: int = 0, firs
         editor.set_time(time)
     if headless or snapshot is not None:
         rd.load_pyglet(headless=True)
-        win = AuthorWindow.create(editor, width=width, height=height, visible=False)
+        win = AuthorWindow.create(editor, width=width, height=height, visible=False, samples=samples)
         try:
             win.show_help = help_panel
             out = snapshot or _free_png(os.path.splitext(os.path.basename(animation_path))[0] + "_author.png")
@@ -1370,7 +1371,7 @@ def run_author(animation_path: str, creatures=(), *, random_count: int = 0, firs
         return 0
     pyglet = rd.load_pyglet(headless=False)
     try:
-        win = AuthorWindow.create(editor, width=width, height=height, visible=True)
+        win = AuthorWindow.create(editor, width=width, height=height, visible=True, samples=samples)
     except rd.ViewerError:
         raise
     except Exception as exc:  # noqa: BLE001 - pyglet's display errors have no common base
@@ -1392,7 +1393,7 @@ def _free_png(path: str) -> str:
 
 
 def measure_fps(editor: Editor, *, width: int = 1400, height: int = 800, frames: int = 60,
-                playing: bool = True, read: bool = False) -> dict:
+                playing: bool = True, read: bool = False, samples: int = 4) -> dict:
     """Frames per second of the whole tool off screen: every creature ticked by the
     runtime, the panels built, the 3-D view drawn, composed with the panels and copied to
     the window (``present``, what the window does each frame), finished (``glFinish``);
@@ -1401,7 +1402,7 @@ def measure_fps(editor: Editor, *, width: int = 1400, height: int = 800, frames:
     import time as _time
 
     rd.load_pyglet(headless=True)
-    win = AuthorWindow.create(editor, width=width, height=height, visible=False)
+    win = AuthorWindow.create(editor, width=width, height=height, visible=False, samples=samples)
     from pyglet import gl
 
     try:

@@ -64,7 +64,7 @@ def cmd_author(args: argparse.Namespace) -> int:
     return run_author(args.animation, creatures, random_count=args.random, first_seed=args.first_seed,
                       headless=args.headless, snapshot=args.snapshot, width=args.width, height=args.height,
                       time=args.time, channel=args.channel, variant=args.variant, help_panel=args.help_panel,
-                      overwrite=args.force)
+                      overwrite=args.force, samples=args.samples)
 
 
 def cmd_play(args: argparse.Namespace) -> int:
@@ -108,6 +108,8 @@ def add_tool_commands(sub) -> None:
     author.add_argument("--headless", action="store_true", help="no window: render one frame (see --snapshot)")
     author.add_argument("--snapshot", metavar="OUT.png", help="write one frame of the tool to OUT.png and exit")
     author.add_argument("--help-panel", action="store_true", help="show the keyboard and mouse help panel")
+    author.add_argument("--samples", type=int, default=4,
+                        help="antialiasing samples of the 3-D view (0 is about twice as fast on a software renderer)")
     author.add_argument("--width", type=int, default=1400)
     author.add_argument("--height", type=int, default=800)
     author.add_argument("--force", action="store_true", help="overwrite an existing snapshot")

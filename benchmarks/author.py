@@ -39,6 +39,7 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=120)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--size", default="1400x800")
+    ap.add_argument("--samples", type=int, default=4, help="antialiasing samples of the 3-D view")
     ap.add_argument("--animation", default=os.path.join(ROOT, "animations", "pick_fruit.yaml"))
     args = ap.parse_args(argv)
     width, height = (int(v) for v in args.size.lower().split("x"))
@@ -51,7 +52,7 @@ def main(argv=None) -> int:
     runs = []
     for _ in range(args.runs):
         ed = Editor(Document.open(args.animation), cs)
-        runs.append(measure_fps(ed, width=width, height=height, frames=args.frames))
+        runs.append(measure_fps(ed, width=width, height=height, frames=args.frames, samples=args.samples))
     ed = Editor(Document.open(args.animation), cs)
     ed.play(True)
     ticks = []
@@ -60,7 +61,7 @@ def main(argv=None) -> int:
         ed.preview.advance(1 / 60)
         ticks.append(time.perf_counter() - t0)
     ed = Editor(Document.open(args.animation), cs)
-    read = measure_fps(ed, width=width, height=height, frames=args.frames, read=True)
+    read = measure_fps(ed, width=width, height=height, frames=args.frames, read=True, samples=args.samples)
     fps = [r["fps"] for r in runs]
     best = runs[int(np.argsort(fps)[len(fps) // 2])]
     out = {"creatures": len(cs), "bodies": int(sum(c.nbody for c in cs)), "width": width, "height": height,
