@@ -191,7 +191,7 @@ def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root
 @njit(cache=True)
 def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_pos, world_rot,
                       body_parent, body_local_rot, body_local_joint, body_joint_offset,
-                      jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep,
+                      jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep, jig_follow,
                       jig_err, jig_err_vel, jig_target, jig_target_vel, jig_active, jig_chain_joint, jig_chain_rot,
                       dt, simulate):
     """World pose of every body: the driven (IK) bodies carried by the character's world
@@ -206,7 +206,7 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
                     world_pos[c, b, j] = place_pos[c, j] + v[j]
                 quat_mul_into(place_rot[c], char_rot[c, b], world_rot[c, b])
         jiggle_kernel(body_parent, body_local_rot, body_local_joint, body_joint_offset, jig_lever, jig_omega,
-                      jig_zeta, jig_max_err, jig_sleep, driven[c], world_pos[c], world_rot[c], jig_err[c],
+                      jig_zeta, jig_max_err, jig_sleep, jig_follow, driven[c], world_pos[c], world_rot[c], jig_err[c],
                       jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c], jig_chain_joint, jig_chain_rot,
                       dt, simulate)
 

@@ -500,9 +500,9 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
         s.output_call = BoundKernel(RK.output_and_jiggle, (
             s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot, c.body_parent,
             c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever, rig.omega, rig.zeta, rig.max_err,
-            rig.sleep, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active, s.jig_chain_joint,
-            s.jig_chain_rot, 1.0 / 60.0, True),
-            slots=(23, 24))
+            rig.sleep, rig.follow, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active,
+            s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0, True),
+            slots=(24, 25))
     s.output_call.call(float(dt), bool(simulate))
 
 

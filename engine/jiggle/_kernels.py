@@ -22,7 +22,10 @@ parent stops suddenly the tip swings on, then settles.
 
 The rigid target p* of a body is where the *rigid* chain from its driven ancestor would put
 its tip (every passive body between them at its rest offset), not where its jiggling parent
-is: each spring is driven by the motion of the driven ancestor only. Driving a link by its
+is: each spring is driven by the motion of the driven ancestor only. The exception is a
+body much shorter than its parent (``JiggleRig.follow``: an eye, an ear or a jaw on a head):
+it hangs from its posed parent, whose lag it shares, since a two-centimetre eye pointed
+from where the swinging head puts its socket at where the rigid head would have it spins. Driving a link by its
 parent's own swing makes a chain of springs a whip: on a 6-link, 4.5 m tail a 0.8 m drop of
 the hips swung the tip 3 m and rang for seconds. The body is still attached to its posed
 (jiggling) parent, so the chain stays connected, and its lever points from there to its
@@ -30,7 +33,9 @@ simulated tip (the rigid chain's tip plus its lag): the lag is a displacement of
 not a turn the links further out inherit and add to. Once |e| and |e'| fall below a
 sleep threshold they are set to exactly zero, so a body at rest is exactly at rest (no
 endless twitching). The error is clamped to a fraction of the lever length so a teleport
-or a huge dt cannot fold a body over.
+or a huge dt cannot fold a body over; an error already beyond the clamp (a body handed
+over from the IK far from its rigid pose, as a clip ends) may shrink but not grow, so the
+hand-off is continuous and the body swings back.
 """
 
 from __future__ import annotations
@@ -39,6 +44,9 @@ import numpy as np
 from numba import njit
 
 from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into
+
+#: Largest share of a body's lever its parent's lag may push its tip by (see the kernel).
+PARENT_SHARE = 0.3
 
 
 @njit(cache=True)
@@ -52,6 +60,7 @@ def jiggle_kernel(
     jig_zeta,           # (n,) damping ratio
     jig_max_err,        # (n,) largest tip deflection, m
     jig_sleep,          # (n,) sleep threshold on |e| (m) and |e'| (m/s)
+    jig_follow,         # (n,) bool: the rigid chain restarts at the posed parent (short bodies)
     driven,             # (n,) bool: written by IK/FK this frame, left alone here
     world_pos,          # (n, 3) in: driven bodies; out: the others
     world_rot,          # (n, 4) same
@@ -84,8 +93,10 @@ def jiggle_kernel(
             state_active[i] = False
             continue
         p = body_parent[i]
-        # Where the rigid chain puts the parent: the parent itself when it is driven.
-        if driven[p]:
+        # Where the rigid chain puts the parent: the parent itself when it is driven, or
+        # when this body follows its posed parent (a short body on a long one: an eye on
+        # a swinging head moves with the head; its own spring adds only its own lag).
+        if driven[p] or jig_follow[i]:
             quat_mul_into(world_rot[p], body_local_rot[i], chain_rot[i])
             quat_rotate_into(world_rot[p], body_local_joint[i], tmp)
             for k in range(3):
@@ -114,14 +125,22 @@ def jiggle_kernel(
                 final_rot[k] = rigid_rot[k]
         else:
             if not state_active[i]:
-                # Becomes passive this frame: start from where its tip was last frame
-                # (continuity with the driven pose), at rest relative to the target.
-                # world_pos[i] and world_rot[i] still hold last frame's output.
+                # Becomes passive this frame: start from the turn it had last frame
+                # (continuity with the driven pose: world_rot[i] still holds last frame's
+                # output), at rest relative to the target. The error is set so that the
+                # lever below points where the last pose pointed it (a rotation, not a tip
+                # position: the joint has moved with the parent, and the parent's motion
+                # must not turn a short body through its joint).
                 quat_rotate_into(world_rot[i], jig_lever[i], tmp)
-                quat_rotate_into(world_rot[i], body_joint_offset[i], offset)
+                lever_len = np.sqrt(lever_rigid[0] ** 2 + lever_rigid[1] ** 2 + lever_rigid[2] ** 2)
+                dd = 0.0
                 for k in range(3):
-                    last_joint = world_pos[i, k] - offset[k]
-                    state_err[i, k] = last_joint + tmp[k] - target[k]
+                    offset[k] = joint_world[k] - chain_joint[i, k]
+                    dd += offset[k] * offset[k]
+                cap = PARENT_SHARE * lever_len
+                soft = 1.0 / np.sqrt(1.0 + dd / (cap * cap)) if cap > 0.0 else 0.0
+                for k in range(3):
+                    state_err[i, k] = tmp[k] - lever_rigid[k] + soft * offset[k]
                     state_err_vel[i, k] = 0.0
                     state_target[i, k] = target[k]
                     state_target_vel[i, k] = 0.0
@@ -129,6 +148,9 @@ def jiggle_kernel(
             w = jig_omega[i]
             z = jig_zeta[i]
             denom = 1.0 + 2.0 * z * w * dt + w * w * dt * dt
+            e_before = 0.0
+            for k in range(3):
+                e_before += state_err[i, k] * state_err[i, k]
             e2 = 0.0
             v2 = 0.0
             for k in range(3):
@@ -141,8 +163,11 @@ def jiggle_kernel(
                 state_target_vel[i, k] = u_new
                 e2 += state_err[i, k] * state_err[i, k]
                 v2 += ev * ev
-            # Clamp the deflection; sleep when settled.
-            limit = jig_max_err[i]
+            # Clamp the deflection (a deflection beyond the limit may only shrink: a body
+            # that just became passive far from its rigid target, at the end of a clip,
+            # swings back from where it was instead of jumping to the limit); sleep when
+            # settled.
+            limit = max(jig_max_err[i], np.sqrt(e_before))
             if e2 > limit * limit:
                 s = limit / np.sqrt(e2)
                 for k in range(3):
@@ -153,9 +178,23 @@ def jiggle_kernel(
                     state_err_vel[i, k] = 0.0
             # Point the lever from where the body hangs at its simulated tip (the rigid
             # chain's tip plus the lag), so a link's lag is a displacement of its own tip,
-            # not a turn that every link further out would inherit.
+            # not a turn that every link further out would inherit. Where the body hangs
+            # differs from the rigid chain's joint by its parent's lag d; a short body on a
+            # long swinging parent (an eye on a head) would point its lever wherever d
+            # says, even backwards through its joint, and spin. So d enters softly, at most
+            # ``PARENT_SHARE`` of the lever (d / sqrt(1 + (|d| / (share |lever|))^2): about
+            # d while small, never more): with the error clamped at MAX_DEFLECTION of the
+            # lever the simulated lever stays within 0.9 of it of the rigid one, so the turn
+            # is below 64 degrees and continuous (it never passes the antipode).
+            lever_len = np.sqrt(lever_rigid[0] ** 2 + lever_rigid[1] ** 2 + lever_rigid[2] ** 2)
+            dd = 0.0
             for k in range(3):
-                lever_sim[k] = target[k] + state_err[i, k] - joint_world[k]
+                tmp[k] = joint_world[k] - chain_joint[i, k]
+                dd += tmp[k] * tmp[k]
+            cap = PARENT_SHARE * lever_len
+            soft = 1.0 / np.sqrt(1.0 + dd / (cap * cap)) if cap > 0.0 else 0.0
+            for k in range(3):
+                lever_sim[k] = lever_rigid[k] + state_err[i, k] - soft * tmp[k]
             quat_between_into(lever_rigid, lever_sim, turn)
             quat_mul_into(turn, rigid_rot, final_rot)
 

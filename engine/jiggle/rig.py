@@ -52,6 +52,8 @@ LEVER_REFERENCE = 0.25      # m: lever length at which the capability frequency 
 DEPTH_FACTOR = 0.88         # frequency factor per step away from the driven ancestor
 MAX_DEFLECTION = 0.6        # largest tip error as a fraction of the lever length
 SLEEP = 1e-6                # sleep threshold as a fraction of the lever length (m, m/s)
+FOLLOW_RATIO = 0.5          # a body whose lever is shorter than this share of its parent's hangs
+                            # from the posed parent (see the kernel)
 
 
 def flexibility(creature: Creature) -> tuple[np.ndarray, np.ndarray]:
@@ -114,6 +116,8 @@ class JiggleRig:
     zeta: np.ndarray       # (n,) damping ratio
     max_err: np.ndarray    # (n,) largest tip deflection, m
     sleep: np.ndarray      # (n,) sleep threshold, m and m/s
+    follow: np.ndarray     # (n,) bool: hangs from its posed parent, not the rigid chain (short
+                           #   bodies on long parents: eyes, ears, jaws on a head)
 
     @classmethod
     def for_creature(cls, creature: Creature) -> JiggleRig:
@@ -128,9 +132,10 @@ class JiggleRig:
     def _make(cls, creature, freq, zeta) -> JiggleRig:
         lever = _levers(creature)
         length = np.linalg.norm(lever, axis=1)
+        parent_length = np.array([length[p] if p >= 0 else np.inf for p in creature.body_parent])
         arrays = dict(lever=lever, omega=2.0 * np.pi * np.asarray(freq, float),
                       zeta=np.asarray(zeta, float), max_err=MAX_DEFLECTION * length,
-                      sleep=SLEEP * np.maximum(length, 1e-6))
+                      sleep=SLEEP * np.maximum(length, 1e-6), follow=length < FOLLOW_RATIO * parent_length)
         for a in arrays.values():
             a.flags.writeable = False
         return cls(creature=creature, **arrays)
@@ -189,6 +194,6 @@ def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_po
         raise ValueError("jiggle_step: the root body must be driven")
     c = rig.creature
     jiggle_kernel(c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset,
-                  rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, driven, world_pos, world_rot,
+                  rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, rig.follow, driven, world_pos, world_rot,
                   state.err, state.err_vel, state.target, state.target_vel, state.active, state.chain_joint,
                   state.chain_rot, float(dt), bool(simulate))

@@ -73,13 +73,7 @@ def continuity(rec, ctx) -> list[Measure]:
     cls = body_classes(c, rec.driven[1:])
     # step i -> i+1 is reported at frame i+1 (the frame that shows it)
     out = []
-    rot = worst("rotation_pop", excess, "rad/frame", names, t, frame_offset=1)
-    rot.detail["turn"] = float(turn.flat[np.argmax(excess)]) if excess.size else 0.0
-    rot.detail["asked"] = float(asked.flat[np.argmax(excess)]) if excess.size else 0.0
-    for k, cname in enumerate(CLASS_NAMES):
-        m = cls == k
-        rot.detail[f"{cname}_max"] = float(excess[m].max()) if m.any() else 0.0
-    out.append(rot)
+    out.append(_pop("rotation_pop", excess, turn, asked, cls, c, t, 0))
     out.append(worst("position_pop", excess_move, "size/frame", names, t, frame_offset=1))
 
     speed = worst("angular_speed", turn / dt, "rad/s", names, t, frame_offset=1)
@@ -106,13 +100,12 @@ def continuity(rec, ctx) -> list[Measure]:
 
     # the ends of the clip
     lead = int(round((rec.fade + 0.1) / dt))
-    start = excess[: min(lead, len(excess))]
-    m = worst("start_pop", start, "rad/frame", names, t, frame_offset=1)
+    k0 = min(lead, len(excess))
+    m = _pop("start_pop", excess[:k0], turn[:k0], asked[:k0], cls[:k0], c, t, 0)
     m.series = None
     out.append(m)
     e0 = max(rec.end_frame - lead - 1, 0)
-    end = excess[e0:]
-    m = worst("end_pop", end, "rad/frame", names, t, frame_offset=e0 + 1)
+    m = _pop("end_pop", excess[e0:], turn[e0:], asked[e0:], cls[e0:], c, t, e0)
     m.series = None
     out.append(m)
 
@@ -122,6 +115,23 @@ def continuity(rec, ctx) -> list[Measure]:
         b = int(np.argmax(d))
         out.append(Measure("return_pose", float(d[b]), "size", body=str(names[b]), frame=n - 1, time=float(t[-1])))
     return out
+
+
+def _pop(name, excess, turn, asked, cls, c, t, offset) -> Measure:
+    """The worst excess turn as a Measure, with its turn, what was asked, the class of the
+    body, its parent's turn in that frame and the worst excess per body class."""
+    m = worst(name, excess, "rad/frame", c.body_names, t, frame_offset=offset + 1)
+    if excess.size:
+        i, b = divmod(int(np.argmax(excess)), excess.shape[1])
+        p = int(c.body_parent[b])
+        m.detail["turn"] = float(turn[i, b])
+        m.detail["asked"] = float(asked[i, b])
+        m.detail["class"] = CLASS_NAMES[int(cls[i, b])]
+        m.detail["parent_turn"] = float(turn[i, p]) if p >= 0 else 0.0
+        for k, cname in enumerate(CLASS_NAMES):
+            sel = cls == k
+            m.detail[f"{cname}_max"] = float(excess[sel].max()) if sel.any() else 0.0
+    return m
 
 
 def _carry_max(c, per_body: np.ndarray) -> np.ndarray:
