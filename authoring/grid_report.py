@@ -372,7 +372,11 @@ def _write_html(out: str, doc: dict, pictures: bool) -> None:
     for t in doc["thresholds"]:
         parts.append(f"<tr><td>{e(t['metric'])}</td><td>{e(t['unit'])}</td><td>{t['warn']}</td><td>{t['fail']}</td>"
                      f"<td>{e(t['why'])}</td></tr>")
-    parts.append("</table></body></html>")
+    # the page counts the thumbnails the browser could show (a test reads it back)
+    parts.append("</table><script>window.addEventListener('load',function(){var t=document.querySelectorAll("
+                 "'img.thumb'),n=0;for(var i=0;i<t.length;i++){if(t[i].complete&&t[i].naturalWidth>0){n++;}}"
+                 "document.body.dataset.thumbs=t.length;document.body.dataset.thumbsLoaded=n;});</script>"
+                 "</body></html>")
     _write_text(os.path.join(out, "index.html"), "\n".join(parts))
     os.makedirs(os.path.join(out, "cells"), exist_ok=True)
     for c in cells:

@@ -191,14 +191,28 @@ def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root
 @njit(cache=True)
 def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_pos, world_rot,
                       body_parent, body_local_rot, body_local_joint, body_joint_offset,
-                      jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep, jig_follow,
-                      jig_err, jig_err_vel, jig_target, jig_target_vel, jig_active, jig_chain_joint, jig_chain_rot,
-                      dt, simulate):
+                      jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep, jig_follow, body_extent,
+                      ground, ground_set, jig_err, jig_err_vel, jig_target, jig_target_vel, jig_active,
+                      jig_chain_joint, jig_chain_rot, dt, simulate):
     """World pose of every body: the driven (IK) bodies carried by the character's world
-    placement, then the others by Jiggles in world space (so walking makes ears bounce)."""
+    placement, then the others by Jiggles in world space (so walking makes ears bounce).
+    The ground the passive bodies rest on is ``ground[c]`` (n . x = d) where the gait set
+    it (``ground_set[c]``), else the plane the character stands on (through its placement,
+    normal its up axis)."""
     nchar, nbody = driven.shape
     v = np.empty(3)
+    plane = np.empty(4)
+    up = np.zeros(3)
+    up[2] = 1.0
     for c in range(nchar):
+        if ground_set[c]:
+            for j in range(4):
+                plane[j] = ground[c, j]
+        else:
+            quat_rotate_into(place_rot[c], up, v)
+            for j in range(3):
+                plane[j] = v[j]
+            plane[3] = v[0] * place_pos[c, 0] + v[1] * place_pos[c, 1] + v[2] * place_pos[c, 2]
         for b in range(nbody):
             if driven[c, b]:
                 quat_rotate_into(place_rot[c], char_pos[c, b], v)
@@ -206,9 +220,9 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
                     world_pos[c, b, j] = place_pos[c, j] + v[j]
                 quat_mul_into(place_rot[c], char_rot[c, b], world_rot[c, b])
         jiggle_kernel(body_parent, body_local_rot, body_local_joint, body_joint_offset, jig_lever, jig_omega,
-                      jig_zeta, jig_max_err, jig_sleep, jig_follow, driven[c], world_pos[c], world_rot[c], jig_err[c],
-                      jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c], jig_chain_joint, jig_chain_rot,
-                      dt, simulate)
+                      jig_zeta, jig_max_err, jig_sleep, jig_follow, body_extent, plane, driven[c], world_pos[c],
+                      world_rot[c], jig_err[c], jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c],
+                      jig_chain_joint, jig_chain_rot, dt, simulate)
 
 
 @njit(cache=True)

@@ -125,6 +125,10 @@ class _Stack:
         self.jig_target = np.zeros((n, nb, 3))
         self.jig_target_vel = np.zeros((n, nb, 3))
         self.jig_active = np.zeros((n, nb), np.bool_)
+        #: The ground passive bodies rest on (n . x = d, world), where the gait sets it;
+        #: otherwise the plane the character stands on (through its placement).
+        self.ground = np.tile(np.array([0.0, 0.0, 1.0, 0.0]), (n, 1))
+        self.ground_set = np.zeros(n, np.bool_)
         self.ik_bad = np.full(n, -1, np.int64)
         # blend scratch, one set reused across characters
         self.lay_pos = np.zeros((nb, 3))
@@ -144,7 +148,8 @@ class _Stack:
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
-                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad", "stand")
+                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad", "stand", "ground",
+                 "ground_set")
 
     def copy_row(self, dst: int, src: _Stack, row: int) -> None:
         for name in self._PER_CHAR:
@@ -427,6 +432,8 @@ def _gait_character(char: Character, dt: float) -> None:
     s, r = char._stack, char._row
     char.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r], s.goal_rot[r],
                    s.goal_pw[r], s.goal_rw[r])
+    s.ground[r] = char.gait.ground_plane          # the terrain under the character, for Jiggles
+    s.ground_set[r] = True
 
 
 def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
@@ -500,9 +507,9 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
         s.output_call = BoundKernel(RK.output_and_jiggle, (
             s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot, c.body_parent,
             c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever, rig.omega, rig.zeta, rig.max_err,
-            rig.sleep, rig.follow, s.jig_err, s.jig_err_vel, s.jig_target, s.jig_target_vel, s.jig_active,
-            s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0, True),
-            slots=(24, 25))
+            rig.sleep, rig.follow, c.body_extent, s.ground, s.ground_set, s.jig_err, s.jig_err_vel, s.jig_target,
+            s.jig_target_vel, s.jig_active, s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0, True),
+            slots=(27, 28))
     s.output_call.call(float(dt), bool(simulate))
 
 

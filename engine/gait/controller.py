@@ -144,6 +144,9 @@ class GaitController:
         self._foot_tilt = np.zeros((F, 4))
         self._foot_tilt[:, 0] = 1.0
         self._slope_w = np.zeros(2)
+        #: The ground plane under the character, world (nx, ny, nz, d): n . x = d, updated
+        #: each step from the terrain under the root and its slope.
+        self.ground_plane = np.array([0.0, 0.0, 1.0, 0.0])
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
         self._bob = np.zeros(6)               # see ``_kernels.gait_pose``
@@ -796,6 +799,12 @@ class GaitController:
         else:
             sx = (hts[3 * F + 1] - hts[3 * F + 2]) / (2 * e)
             sl = (hts[3 * F + 3] - hts[3 * F + 4]) / (2 * e)
+        # the ground plane under the character (world), for the passive bodies
+        gx, gy = cy * sx - sy * sl, sy * sx + cy * sl
+        nrm = math.sqrt(gx * gx + gy * gy + 1.0)
+        gp = self.ground_plane
+        gp[0], gp[1], gp[2] = -gx / nrm, -gy / nrm, 1.0 / nrm
+        gp[3] = gp[0] * place_pos[0] + gp[1] * place_pos[1] + gp[2] * float(hts[3 * F])
         a_t = 1.0 - math.exp(-dt / TILT_TAU)
         self._tilt[0] += a_t * (sx - self._tilt[0])
         self._tilt[1] += a_t * (sl - self._tilt[1])

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into
+from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into, quat_rotate_t
 
 #: Largest share of a body's lever its parent's lag may push its tip by (see the kernel).
 PARENT_SHARE = 0.3
@@ -61,6 +61,8 @@ def jiggle_kernel(
     jig_max_err,        # (n,) largest tip deflection, m
     jig_sleep,          # (n,) sleep threshold on |e| (m) and |e'| (m/s)
     jig_follow,         # (n,) bool: the rigid chain restarts at the posed parent (short bodies)
+    body_extent,        # (n, 3) box half-extents, body frame, m
+    ground,             # (4,) the ground plane (nx, ny, nz, d): n . x = d, n up, unit
     driven,             # (n,) bool: written by IK/FK this frame, left alone here
     world_pos,          # (n, 3) in: driven bodies; out: the others
     world_rot,          # (n, 4) same
@@ -84,6 +86,8 @@ def jiggle_kernel(
     final_rot = np.empty(4)
     offset = np.empty(3)
     tmp = np.empty(3)
+    tmp2 = np.empty(3)
+    corner = np.empty(3)
     # Rigid chain pose of every passive body (into the scratch ``chain_*``): joint position
     # and rotation it would have at its rest offsets below its driven ancestor (bodies are
     # ordered parents first).
@@ -197,6 +201,20 @@ def jiggle_kernel(
                 lever_sim[k] = lever_rigid[k] + state_err[i, k] - soft * tmp[k]
             quat_between_into(lever_rigid, lever_sim, turn)
             quat_mul_into(turn, rigid_rot, final_rot)
+            # The ground: a passive body does not swing into it (a tentacle or a tail lying
+            # on the ground rests on it). Its box's lowest corner is lifted onto the plane by
+            # turning the body about its joint, and the spring takes the lifted tip as its
+            # state, with no velocity into the ground.
+            if _ground_contact(final_rot, joint_world, body_joint_offset[i], body_extent[i], ground, corner,
+                               turn):
+                quat_rotate_into(final_rot, jig_lever[i], tmp2)
+                vn = 0.0
+                for k in range(3):
+                    state_err[i, k] = tmp2[k] - lever_rigid[k] + soft * tmp[k]
+                    vn += state_err_vel[i, k] * ground[k]
+                if vn < 0.0:
+                    for k in range(3):
+                        state_err_vel[i, k] -= vn * ground[k]
 
         # Body origin from its joint and final rotation.
         quat_rotate_into(final_rot, body_joint_offset[i], offset)
@@ -204,3 +222,71 @@ def jiggle_kernel(
             world_pos[i, k] = joint_world[k] + offset[k]
         for k in range(4):
             world_rot[i, k] = final_rot[k]
+
+
+@njit(cache=True)
+def _ground_contact(rot, joint, joint_offset, extent, ground, corner, dq):
+    """Lift a box hanging at ``joint`` (its origin at ``joint + rot joint_offset``) out of
+    the ground plane by turning ``rot`` in place about the joint: the lowest corner rises
+    onto the plane (two small-angle steps; at most 0.5 rad each). Returns whether it
+    turned. A box far above the plane (origin higher than its half-diagonal) costs one
+    dot product."""
+    ox, oy, oz = quat_rotate_t(rot, joint_offset)
+    ox += joint[0]
+    oy += joint[1]
+    oz += joint[2]
+    r = np.sqrt(extent[0] ** 2 + extent[1] ** 2 + extent[2] ** 2)
+    if ox * ground[0] + oy * ground[1] + oz * ground[2] - ground[3] >= r:
+        return False
+    turned = False
+    for _ in range(2):
+        ox, oy, oz = quat_rotate_t(rot, joint_offset)
+        low = 1e300
+        for sx in (-1.0, 1.0):
+            for sy in (-1.0, 1.0):
+                for sz in (-1.0, 1.0):
+                    cx, cy, cz = quat_rotate_t4(rot, sx * extent[0], sy * extent[1], sz * extent[2])
+                    cx += joint[0] + ox
+                    cy += joint[1] + oy
+                    cz += joint[2] + oz
+                    h = cx * ground[0] + cy * ground[1] + cz * ground[2] - ground[3]
+                    if h < low:
+                        low = h
+                        corner[0], corner[1], corner[2] = cx, cy, cz
+        depth = -low
+        if depth <= 1e-9:
+            break
+        # arm from the joint to the corner; turning it about arm x n raises it
+        ax, ay, az = corner[0] - joint[0], corner[1] - joint[1], corner[2] - joint[2]
+        up = ax * ground[0] + ay * ground[1] + az * ground[2]
+        hx, hy, hz = ax - up * ground[0], ay - up * ground[1], az - up * ground[2]
+        horizontal = np.sqrt(hx * hx + hy * hy + hz * hz)
+        kx = ay * ground[2] - az * ground[1]
+        ky = az * ground[0] - ax * ground[2]
+        kz = ax * ground[1] - ay * ground[0]
+        kn = np.sqrt(kx * kx + ky * ky + kz * kz)
+        if horizontal < 1e-9 or kn < 1e-12:
+            break                 # the corner is straight below the joint: no turn lifts it
+        angle = min(depth / horizontal, 0.5)
+        s = np.sin(0.5 * angle) / kn
+        dq[0] = np.cos(0.5 * angle)
+        dq[1] = kx * s
+        dq[2] = ky * s
+        dq[3] = kz * s
+        w0, x0, y0, z0 = rot[0], rot[1], rot[2], rot[3]
+        rot[0] = dq[0] * w0 - dq[1] * x0 - dq[2] * y0 - dq[3] * z0
+        rot[1] = dq[0] * x0 + dq[1] * w0 + dq[2] * z0 - dq[3] * y0
+        rot[2] = dq[0] * y0 - dq[1] * z0 + dq[2] * w0 + dq[3] * x0
+        rot[3] = dq[0] * z0 + dq[1] * y0 - dq[2] * x0 + dq[3] * w0
+        turned = True
+    return turned
+
+
+@njit(cache=True, inline="always")
+def quat_rotate_t4(q, vx, vy, vz):
+    """q rotating (vx, vy, vz), as a tuple."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz), vz + w * tz + (x * ty - y * tx))

@@ -176,7 +176,7 @@ class JiggleState:
 
 
 def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_pos: np.ndarray,
-                world_rot: np.ndarray, dt: float, simulate: bool = True) -> None:
+                world_rot: np.ndarray, dt: float, simulate: bool = True, ground=(0.0, 0.0, 1.0, 0.0)) -> None:
     """Pose every body not in ``driven`` from its parent, with passive lag when ``simulate``.
 
     Args:
@@ -187,6 +187,8 @@ def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_po
             input, which a body that just became passive starts from).
         dt: the frame step in seconds (> 0).
         simulate: False poses passive bodies rigidly at their rest offsets (the stage off).
+        ground: the plane (nx, ny, nz, d), n . x = d with n the unit up normal, that passive
+            bodies rest on (default the plane z = 0).
     """
     if not (dt > 0.0 and np.isfinite(dt)):
         raise ValueError(f"jiggle_step: dt must be a positive finite number of seconds, got {dt!r}")
@@ -194,6 +196,7 @@ def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_po
         raise ValueError("jiggle_step: the root body must be driven")
     c = rig.creature
     jiggle_kernel(c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset,
-                  rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, rig.follow, driven, world_pos, world_rot,
+                  rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, rig.follow, c.body_extent,
+                  np.asarray(ground, dtype=float), driven, world_pos, world_rot,
                   state.err, state.err_vel, state.target, state.target_vel, state.active, state.chain_joint,
                   state.chain_rot, float(dt), bool(simulate))

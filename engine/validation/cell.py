@@ -26,6 +26,7 @@ from engine.anim.binding import BindError, bind
 from engine.anim.evaluate import default_target
 from engine.channels import _kernels as CK
 from engine.model.creature import Creature
+from engine.validation import _kernels as K
 from engine.validation import thresholds as T
 from engine.validation.consistency import mirror_difference, path_independence, scrub_frames
 from engine.validation.continuity import continuity
@@ -64,6 +65,7 @@ class CellContext:
     bone_length: np.ndarray         # (nb,) parent joint to joint at rest, floored, m
     spine_rest_chord: np.ndarray    # (nspine - 1,) m
     symmetric: bool                 # every body has a mirror partner and the rest pose mirrors
+    rest_low: np.ndarray            # (nb,) lowest corner of each box at rest, m
     rest_pos: np.ndarray | None = None
 
     @classmethod
@@ -104,7 +106,8 @@ class CellContext:
                    foot_contact_local=contact,
                    leg_length=np.maximum(np.asarray(c.leg_length, float), 1e-6), pair_a=pa, pair_b=pb,
                    pair_rest_depth=rest_depths(c, pa, pb), bone_length=bone,
-                   spine_rest_chord=np.maximum(chord, 1e-9), symmetric=symmetric)
+                   spine_rest_chord=np.maximum(chord, 1e-9), symmetric=symmetric,
+                   rest_low=K.box_min_z(c.body_rest_pos[None], c.body_rest_rot[None], c.body_extent)[0])
 
     def rest_reference(self, frames: int) -> np.ndarray:
         """World positions (frames, nb, 3) of the creature standing, playing nothing."""

@@ -26,7 +26,13 @@ def ground(rec, ctx) -> list[Measure]:
         return []
     low = K.box_min_z(rec.world_pos, rec.world_rot, c.body_extent)         # (n, nb)
     depth = np.maximum(-low, 0.0) / ctx.height
-    out = [worst("below_ground", depth, "height", c.body_names, rec.t)]
+    m = worst("below_ground", depth, "height", c.body_names, rec.t)
+    if m.frame is not None and m.value > 0.0:
+        b = c.body(m.body)
+        m.detail["driven"] = bool(rec.driven[m.frame, b])
+        m.detail["goal"] = bool(rec.goal_pw[m.frame, b] > 0.0 or rec.goal_rw[m.frame, b] > 0.0)
+        m.detail["rest_low"] = float(ctx.rest_low[b] / ctx.height)
+    out = [m]
     feet = c.leg_foot
     if feet.size == 0:
         out.append(Measure("standing_slide", 0.0, "leg"))
