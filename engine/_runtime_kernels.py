@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from engine.anim._kernels import goals_kernel
+from engine.anim._kernels import goals_kernel, goals_kernel_body_targets
 from engine.anim.evaluate import EvalScratch
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
@@ -17,18 +17,22 @@ from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into, 
 
 @njit(cache=True)
 def goals_pairs(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
-                sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos):
+                sg_pos, sg_rot, sg_pw, sg_rw, n_ext, body_parent, local_pos, local_rot, body_targets):
     """Sample, specialize and blend one bound variant for each (character, slot) pair
-    playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``. The
-    body rows of each pair's target table (after its ``n_ext`` external rows) are filled
-    first from that character's current pose ``char_pos``."""
+    playing it, into that slot's goal buffers ``sg_* (nchar, nslot, nbody, ...)``. With
+    ``body_targets`` (some slot is secondary-relative to the creature's own bodies) the
+    body rows of each pair's target table, after its ``n_ext`` external rows, are where
+    this frame's goals put those bodies (``goals_kernel_body_targets``), never last
+    frame's pose: the pose at time t depends on the goals at t alone."""
     _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
-                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, 0, times.shape[0])
+                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, body_parent, local_pos, local_rot, body_targets, 0,
+                 times.shape[0])
 
 
 @njit(cache=True, parallel=True)
 def goals_pairs_parallel(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot,
-                         scratches, sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos):
+                         scratches, sg_pos, sg_rot, sg_pw, sg_rw, n_ext, body_parent, local_pos, local_rot,
+                         body_targets):
     """``goals_pairs`` on all cores: the pairs split into ``scratches.work33.shape[0]``
     contiguous chunks, each sampled in turn by one thread with its own scratch (every
     field of ``scratches`` has a leading chunk axis). Pairs write disjoint rows."""
@@ -36,14 +40,16 @@ def goals_pairs_parallel(cv, consts, pos_on, rot_on, tables, times, pair_char, p
     n = times.shape[0]
     for t in prange(nchunk):
         sc = EvalScratch(scratches.ch_pos[t], scratches.ch_rot[t], scratches.ch_weight[t], scratches.slot_pos[t],
-                         scratches.slot_rot[t], scratches.slot_weight[t], scratches.work33[t], scratches.work34[t])
+                         scratches.slot_rot[t], scratches.slot_weight[t], scratches.work33[t], scratches.work34[t],
+                         scratches.body_rot[t])
         _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, sc,
-                     sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, t * n // nchunk, (t + 1) * n // nchunk)
+                     sg_pos, sg_rot, sg_pw, sg_rw, n_ext, body_parent, local_pos, local_rot, body_targets,
+                     t * n // nchunk, (t + 1) * n // nchunk)
 
 
 @njit(cache=True)
 def _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot, rest_pos, rest_rot, scratch,
-                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, char_pos, lo, hi):
+                 sg_pos, sg_rot, sg_pw, sg_rw, n_ext, body_parent, local_pos, local_rot, body_targets, lo, hi):
     """Pairs ``lo..hi`` of ``goals_pairs`` with one scratch. Everything is borrowed (see
     engine.ik._kernels.borrow): no reference counts per array read, none shared between
     threads."""
@@ -58,11 +64,13 @@ def _goals_chunk(cv, consts, pos_on, rot_on, tables, times, pair_char, pair_slot
         c = pair_char[k]
         s = pair_slot[k]
         table = borrow(tables[k])
-        for b in range(char_pos.shape[1]):
-            for j in range(3):
-                table[n_ext + b, j] = char_pos[c, b, j]
-        goals_kernel(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]), borrow(sg_rot[c, s]),
-                     borrow(sg_pw[c, s]), borrow(sg_rw[c, s]))
+        if body_targets:
+            goals_kernel_body_targets(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]),
+                                      borrow(sg_rot[c, s]), borrow(sg_pw[c, s]), borrow(sg_rw[c, s]), body_parent,
+                                      local_pos, local_rot, n_ext)
+        else:
+            goals_kernel(cvb, cb, po, ro, table, times[k], rp, rr, sc, borrow(sg_pos[c, s]), borrow(sg_rot[c, s]),
+                         borrow(sg_pw[c, s]), borrow(sg_rw[c, s]))
 
 
 @njit(cache=True)

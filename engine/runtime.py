@@ -39,7 +39,7 @@ from engine import _runtime_kernels as RK
 from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
-from engine.anim.evaluate import default_target, make_scratch, make_scratches
+from engine.anim.evaluate import default_target, has_body_targets, make_scratch, make_scratches
 from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
@@ -67,7 +67,7 @@ class Stages:
 class _Clip:
     """What the runtime attaches to a playing clip: the bound variant and its buffers."""
 
-    __slots__ = ("animation", "binding", "bound", "scratch", "table", "n_ext", "calls")
+    __slots__ = ("animation", "binding", "bound", "scratch", "table", "n_ext", "calls", "body_targets")
 
     def __init__(self, animation: Animation, binding: Binding, bound: BoundVariant) -> None:
         self.animation = animation
@@ -75,6 +75,7 @@ class _Clip:
         self.bound = bound
         self.scratch = make_scratch(animation, bound)
         self.n_ext = len(bound.target_names)
+        self.body_targets = has_body_targets(bound)
         self.table = np.zeros((1, self.n_ext + binding.creature.nbody, 3))
         self.calls: dict = {}      # (stack id, row, slot) -> the bound goals kernel
 
@@ -88,7 +89,8 @@ class _Clip:
             hit = BoundKernel(RK.goals_pairs, (self.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
                                                self.table, char._slot_time[slot], _row(r), _row(slot),
                                                c.body_rest_pos, c.body_rest_rot, self.scratch, s.sg_pos, s.sg_rot,
-                                               s.sg_pw, s.sg_rw, self.n_ext, s.char_pos))
+                                               s.sg_pw, s.sg_rw, self.n_ext, c.body_parent, c.body_local_pos,
+                                               c.body_local_rot, self.body_targets))
             self.calls = {key: hit}   # a clip plays in one place at a time
         return hit
 
@@ -720,13 +722,14 @@ class _Group:
             if scratches is None:
                 RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
                                pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
-                               s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, s.char_pos)
+                               s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, c.body_parent, c.body_local_pos,
+                               c.body_local_rot, clip0.body_targets)
             else:
                 with numba.parallel_chunksize(1):   # chunks handed out as threads free up
                     RK.goals_pairs_parallel(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
                                             tables, times, pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot,
                                             scratches, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext,
-                                            s.char_pos)
+                                            c.body_parent, c.body_local_pos, c.body_local_rot, clip0.body_targets)
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""

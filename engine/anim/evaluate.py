@@ -57,6 +57,7 @@ class EvalScratch(NamedTuple):
     slot_weight: np.ndarray  # (nslot,)
     work33: np.ndarray      # (3, 3)
     work34: np.ndarray      # (3, 4)
+    body_rot: np.ndarray    # (nbody, 4) the goal-pose estimate of body secondaries
 
 
 class SimpleBinding(NamedTuple):
@@ -117,7 +118,13 @@ def bind_all(animation: Animation, creature) -> SimpleBinding:
 def make_scratch(animation: Animation, binding: SimpleBinding) -> EvalScratch:
     n, k = animation.nchannel, binding.slots.nslot
     return EvalScratch(np.zeros((n, 3)), np.zeros((n, 4)), np.zeros(n), np.zeros((k, 3)), np.zeros((k, 4)),
-                       np.zeros(k), np.zeros((3, 3)), np.zeros((3, 4)))
+                       np.zeros(k), np.zeros((3, 3)), np.zeros((3, 4)), np.zeros((binding.nbody, 4)))
+
+
+def has_body_targets(binding) -> bool:
+    """Whether some slot is secondary-relative to one of the creature's own bodies (its
+    target row follows the external targets)."""
+    return bool(np.any(binding.slots.slot_target >= len(binding.target_names)))
 
 
 def make_scratches(animation: Animation, binding: SimpleBinding, n: int) -> EvalScratch:
@@ -188,9 +195,10 @@ def evaluate_goals(animation: Animation, creature, t: float, targets: dict | Non
     """Goals of ``animation`` on ``creature`` at play time ``t`` (seconds; wrapped when the
     animation loops, clamped otherwise). ``targets`` maps external target names to
     character-space positions; ``body_pos`` (nbody, 3) positions the secondary bodies
-    (default: rest). Pass ``out`` (``Goals.empty(nbody)``) to write in place: after the
-    first call for an (animation, creature) pair nothing is allocated but the small dict
-    lookups."""
+    (default: where this frame's goals put them, as the runtime does:
+    ``engine.anim._kernels.goals_kernel_body_targets``). Pass ``out``
+    (``Goals.empty(nbody)``) to write in place: after the first call for an (animation,
+    creature) pair nothing is allocated but the small dict lookups."""
     binding, scratch, table = _bound(animation, creature)
     if out is None:
         out = Goals.empty(creature.nbody)
@@ -199,7 +207,13 @@ def evaluate_goals(animation: Animation, creature, t: float, targets: dict | Non
         if body_pos.shape != (creature.nbody, 3) or not np.all(np.isfinite(body_pos)):
             raise AnimationError(f"body_pos must be finite with shape ({creature.nbody}, 3)", field="body_pos")
     fill_targets(animation, creature, binding, targets, body_pos, table)
-    AK.goals_kernel(animation.curves, binding.slots, binding.slot_pos_on, binding.slot_rot_on, table,
-                    float(animation.local_time(float(t))), creature.body_rest_pos, creature.body_rest_rot, scratch,
-                    out.goal_pos, out.goal_rot, out.goal_pos_weight, out.goal_rot_weight)
+    args = (animation.curves, binding.slots, binding.slot_pos_on, binding.slot_rot_on, table,
+            float(animation.local_time(float(t))), creature.body_rest_pos, creature.body_rest_rot, scratch,
+            out.goal_pos, out.goal_rot, out.goal_pos_weight, out.goal_rot_weight)
+    if body_pos is None and has_body_targets(binding):
+        # the runtime's way: secondary bodies where this frame's goals put them
+        AK.goals_kernel_body_targets(*args, creature.body_parent, creature.body_local_pos, creature.body_local_rot,
+                                     len(binding.target_names))
+    else:
+        AK.goals_kernel(*args)
     return out
