@@ -45,6 +45,11 @@ from engine.validation import thresholds as T
 THUMB = 64            # thumbnail side, px
 FILM = 150            # filmstrip frame side, px
 PLOTTED = 4           # failing metrics plotted per cell page
+#: Failing cells of one creature that get a filmstrip and plots (its worst first): a
+#: matplotlib figure costs ~0.1-0.3 s, and a creature whose every cell fails should not
+#: cost a minute of pictures; the other failing cells' pages carry the numbers and the
+#: command that reproduces them.
+PICTURED = 3
 
 # -- pictures (in the worker) ---------------------------------------------------------------
 
@@ -100,7 +105,9 @@ def _plot(cell: dict, series: dict, t: np.ndarray) -> bytes | None:
     names = [k for k, m in cell["metrics"].items() if m.get("verdict") == T.FAIL and k in series][:PLOTTED]
     if not names:
         return None
-    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, 1.9 * len(names)), squeeze=False)
+    height = 0.8 + 1.6 * len(names)           # inches: a panel each, a title and an axis label
+    fig, axes = plt.subplots(len(names), 1, figsize=(6.4, height), squeeze=False)
+    fig.subplots_adjust(left=0.16, right=0.97, top=1.0 - 0.35 / height, bottom=0.45 / height, hspace=0.5)
     for ax, name in zip(axes[:, 0], names, strict=True):
         y = np.asarray(series[name], float)
         x = t[: len(y)]
@@ -119,9 +126,8 @@ def _plot(cell: dict, series: dict, t: np.ndarray) -> bytes | None:
         ax.legend(fontsize=7, loc="upper right")
     axes[-1, 0].set_xlabel("time since play (s)", fontsize=8)
     fig.suptitle(f"{cell['creature']} / {cell['animation']} / {cell.get('variant_id') or ''}", fontsize=9)
-    fig.tight_layout()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
+    fig.savefig(buf, format="png", dpi=80)
     plt.close(fig)
     return buf.getvalue()
 
@@ -154,10 +160,11 @@ def picture_task(source: G.Source, paths: tuple[str, ...], variant: str | None =
             _, pos, rot = res.poses["worst"]
             strip[:, k * THUMB:(k + 1) * THUMB] = _draw_pose(creature, pos, rot, THUMB, grid=False)
         files[f"thumbs/{_safe(source.name)}.png"] = _png(strip)
-        # filmstrips and plots of failing cells
-        for res, cell in zip(results, cells, strict=True):
-            if res.status != T.FAIL or "film" not in res.poses:
-                continue
+        # filmstrips and plots of the worst failing cells
+        failing = sorted((k for k, (res, cell) in enumerate(zip(results, cells, strict=True))
+                          if res.status == T.FAIL and "film" in res.poses), key=lambda k: -G.severity(cells[k]))
+        for k in failing[:PICTURED]:
+            res, cell = results[k], cells[k]
             cid = cell_id(cell)
             frames = res.poses["film"]
             worst_frame = res.poses.get("worst_frame")

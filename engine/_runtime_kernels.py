@@ -12,7 +12,7 @@ from engine.anim._kernels import goals_kernel, goals_kernel_body_targets
 from engine.anim.evaluate import EvalScratch
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
-from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_slerp_into, quat_slerp_t
+from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_rotate_t, quat_slerp_into, quat_slerp_t
 
 
 @njit(cache=True)
@@ -234,18 +234,29 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
 
 
 @njit(cache=True)
-def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw):
+def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot,
+               leg_rigid, leg_hip, leg_ankle, leg_reach):
     """Standing (the gait stage of a character that does not locomote): every foot of
     each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
     animations ask of it: the blended goal is laid over the rest spot by its own weight,
     and the foot's goal weight becomes 1. So a crouch or a sway bends the legs instead of
     pushing the feet through the ground, and a clip that lifts a foot (a kick, a jump)
-    still lifts it, fading in and out without a pop."""
+    still lifts it, fading in and out without a pop.
+
+    A knee-less leg (``leg_rigid``: one segment from hip to ankle) cannot bend: its hip
+    joint must stay on the sphere of the segment's length around its ankle. So when such
+    legs stand, the root (which the clip poses) is moved, translation only, to where their
+    hips are on their spheres: three rounds of the mean correction over those legs
+    (``leg_hip``: hip joint in the root frame at rest; ``leg_ankle``: ankle in the foot's
+    frame, from its origin; ``leg_reach``: hip to ankle). A crouch on stilts is then no
+    crouch, and a sway moves only as far as the stilts allow, instead of the feet going
+    into the ground or skating."""
+    nleg = feet.shape[0]
     for i in range(rows.shape[0]):
         r = rows[i]
         if not stand[r]:
             continue
-        for k in range(feet.shape[0]):
+        for k in range(nleg):
             f = feet[k]
             w = min(max(goal_pw[r, f], 0.0), 1.0)
             for j in range(3):
@@ -262,6 +273,38 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 goal_rot[r, f, 2] = q2
                 goal_rot[r, f, 3] = q3
             goal_rw[r, f] = 1.0
+        # knee-less legs hold the root where their hips can be
+        nrigid = 0
+        for k in range(nleg):
+            if leg_rigid[k] and goal_pw[r, feet[k]] >= 1.0:
+                nrigid += 1
+        if nrigid == 0:
+            continue
+        for _ in range(3):
+            cx, cy, cz = 0.0, 0.0, 0.0
+            for k in range(nleg):
+                if not leg_rigid[k]:
+                    continue
+                f = feet[k]
+                hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
+                hx += root_pos[r, 0]
+                hy += root_pos[r, 1]
+                hz += root_pos[r, 2]
+                ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_ankle[k])
+                ax += goal_pos[r, f, 0]
+                ay += goal_pos[r, f, 1]
+                az += goal_pos[r, f, 2]
+                vx, vy, vz = hx - ax, hy - ay, hz - az
+                d = np.sqrt(vx * vx + vy * vy + vz * vz)
+                if d < 1e-12:
+                    continue
+                s = leg_reach[k] / d
+                cx += ax + vx * s - hx
+                cy += ay + vy * s - hy
+                cz += az + vz * s - hz
+            root_pos[r, 0] += cx / nrigid
+            root_pos[r, 1] += cy / nrigid
+            root_pos[r, 2] += cz / nrigid
 
 
 @njit(cache=True)

@@ -443,9 +443,36 @@ def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
     call = s.stand_call
     if call is None or call.args[0] is not rows:
         c = s.creature
+        rigid, hip, ankle, reach = _standing_legs(c)
         call = s.stand_call = BoundKernel(RK.stand_feet, (rows, s.stand, c.leg_foot, c.body_rest_pos, c.body_rest_rot,
-                                                          s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw))
+                                                          s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos,
+                                                          s.root_rot, rigid, hip, ankle, reach))
     call.call()
+
+
+def _standing_legs(c: Creature) -> tuple:
+    """Per leg, for the standing stage (``RK.stand_feet``): knee-less or not (one segment
+    from the hip to the foot: the leg's bodies are its root and its foot), the hip joint in
+    the root's frame, the ankle in the foot's frame (from its origin), and the hip-to-ankle
+    length. Made once per creature."""
+    hit = _LEGS.get(c)
+    if hit is None:
+        n = c.nleg
+        rigid = np.array([int(c.leg_body_num[k]) == 2 for k in range(n)], np.bool_)
+        hip = np.zeros((n, 3))
+        ankle = np.zeros((n, 3))
+        reach = np.zeros(n)
+        for k in range(n):
+            f = int(c.leg_foot[k])
+            top = int(c.limb_root[c.body_limb[f]])
+            hip[k] = c.body_rootrel_joint[top]
+            ankle[k] = -c.body_joint_offset[f]
+            reach[k] = float(np.linalg.norm(c.body_rootrel_joint[f] - c.body_rootrel_joint[top]))
+        hit = _LEGS[c] = (rigid, hip, ankle, reach)
+    return hit
+
+
+_LEGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _update_plan(char: Character) -> None:

@@ -23,6 +23,7 @@ and returns what is done (``GridRun.interrupted``).
 
 from __future__ import annotations
 
+import logging
 import os
 import platform
 import time
@@ -180,7 +181,7 @@ def cell_task(source: Source, paths: tuple[str, ...], variant: str | None = None
 
 
 def _cell_json(result, source: Source) -> dict:
-    d = result.to_json(with_series=result.status == T.FAIL)
+    d = result.to_json()
     d["source_kind"] = source.kind
     d["reproduce"] = reproduce_command(source, result)
     d["creature_args"] = source.reproduce()     # the same creature for other tools (menagerie author)
@@ -272,7 +273,7 @@ def _run_dask(run, sources, paths, task, workers, address, variant, bar, on_task
     else:
         n = workers or os.cpu_count() or 1
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=40)
+                               silence_logs=logging.CRITICAL)
         client = Client(cluster)
         run.scheduler = "LocalCluster"
     try:

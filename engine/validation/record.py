@@ -155,7 +155,7 @@ class PlaySpec:
 
 
 #: Members per crowd in ``record_cells`` (recordings of a crowd are held at once).
-CROWD = 8
+CROWD = 16
 
 
 def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, settle: float = SETTLE,
