@@ -2,8 +2,10 @@
 # Set up Menagerie in a virtual environment .venv at the repository root.
 #   bash setup.sh          runtime + viewer (numpy, numba, pyyaml, pyglet)
 #   bash setup.sh grid     + the validation grid's batch tools (dask, matplotlib, tqdm)
+#   bash setup.sh author   + the authoring tool's UI (imgui-bundle, PyOpenGL)
 #   bash setup.sh dev      + test tools (pytest, hypothesis, ruff, pillow) and everything the
-#                            tests exercise (the grid extra; Debian's chromium for the report test)
+#                            tests exercise (the grid and author extras; Debian's chromium for
+#                            the report test and xvfb for the real-window tests)
 #   bash setup.sh bench    + reference peers for the benchmarks (ikpy, mujoco)
 # Needs only Python 3.11+ and the package registries. Offscreen rendering uses EGL
 # (Mesa); when its libraries are missing and we are root, they are installed with apt.
@@ -13,8 +15,8 @@ cd "$(dirname "$0")"
 extras=""
 for arg in "$@"; do
   case "$arg" in
-    dev|bench|media|grid) extras="${extras:+$extras,}$arg" ;;
-    *) echo "setup.sh: unknown option '$arg' (use dev, grid, bench or media)" >&2; exit 2 ;;
+    dev|bench|media|grid|author) extras="${extras:+$extras,}$arg" ;;
+    *) echo "setup.sh: unknown option '$arg' (use dev, grid, author, bench or media)" >&2; exit 2 ;;
   esac
 done
 
@@ -53,6 +55,17 @@ if [[ ",$extras," == *",dev,"* ]] && ! command -v chromium >/dev/null 2>&1; then
       echo "setup.sh: could not install chromium; the browser tests will be skipped" >&2
   else
     echo "setup.sh: chromium not found; install it (apt-get install chromium) for the browser tests" >&2
+  fi
+fi
+# Tests open the viewer and the authoring tool in a real window: Debian's Xvfb (a virtual
+# X server) and xauth for xvfb-run.
+if [[ ",$extras," == *",dev,"* ]] && ! command -v xvfb-run >/dev/null 2>&1; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup.sh: installing xvfb for the real-window tests"
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth >/dev/null) || \
+      echo "setup.sh: could not install xvfb; the real-window tests will be skipped" >&2
+  else
+    echo "setup.sh: xvfb not found; install it (apt-get install xvfb) for the real-window tests" >&2
   fi
 fi
 echo "setup.sh: ready (.venv${extras:+ with $extras})"

@@ -401,6 +401,11 @@ def _write_cell_page(out: str, c: dict) -> None:
     if c.get("known"):
         parts.append(f"<p>Known defects among its failures (waiting for other work): {e('; '.join(c['known']))}</p>")
     parts.append(f"<h2>Reproduce</h2><pre>{e(c.get('reproduce', ''))}</pre>")
+    from authoring.author import author_command
+
+    tool = author_command(c)
+    if tool:
+        parts.append(f"<h2>Open in the authoring tool at the worst frame</h2><pre>{e(tool)}</pre>")
     if os.path.exists(os.path.join(out, "cells", f"{cid}_film.png")):
         times = ", ".join(f"{t:g}" for t in c.get("film_times", []))
         parts.append(f"<h2>Filmstrip</h2><p>t = {e(times)} s (the worst frame framed in red)</p>"

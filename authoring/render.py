@@ -30,6 +30,7 @@ No pillow needed: ``write_png`` encodes with zlib.
 from __future__ import annotations
 
 import ctypes
+import math
 import os
 import struct
 import sys
@@ -172,7 +173,54 @@ def _mat_gl(m: np.ndarray) -> tuple[float, ...]:
 # -- the renderer --------------------------------------------------------------------------------
 
 
-class Renderer:
+class _Picture:
+    """Reading out a finished picture, shared by ``Renderer`` and ``Compositor``: the
+    subclass gives ``_gl``, ``window``, ``width``, ``height``, ``_raw`` (h, w, 3) uint8 with
+    its pointer ``_raw_ptr``, and ``_picture_fbo()`` (the single-sampled framebuffer
+    holding the picture)."""
+
+    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The last drawn picture as ``(height, width, 3) uint8``, top row first.
+
+        Pass ``out`` (that shape and dtype) to have it filled instead of a new array.
+        """
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._picture_fbo())
+        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE,
+                        self._raw_ptr)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+        if out is None:
+            return self._raw[::-1].copy()
+        if out.shape != self._raw.shape or out.dtype != np.uint8:
+            raise ValueError(f"out must be {self._raw.shape} uint8, got {out.shape} {out.dtype}")
+        np.copyto(out, self._raw[::-1])
+        return out
+
+    def save_png(self, path) -> None:
+        """Write the last drawn picture to ``path`` as PNG."""
+        write_png(path, self.read_pixels())
+
+    def present(self) -> None:
+        """Copy the picture into the window's own framebuffer (interactive use)."""
+        gl = self._gl
+        fbo = self._picture_fbo()
+        fw, fh = self.window.get_framebuffer_size()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
+        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh,
+                             gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+    def gl_info(self) -> str:
+        """Renderer and version strings of the GL context (for reports)."""
+        from pyglet.gl import gl_info
+
+        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+
+
+class Renderer(_Picture):
     """Draws scenes into a ``width`` x ``height`` picture (see the module docstring).
 
     Args:
@@ -540,46 +588,43 @@ class Renderer:
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
         self._resolved = True
 
-    def read_pixels(self, out: np.ndarray | None = None) -> np.ndarray:
-        """The last drawn picture as ``(height, width, 3) uint8``, top row first.
+    def label_boxes(self) -> list[tuple[float, float, float, float]]:
+        """(x0, y0, x1, y1) picture boxes (y down from the top) of the labels of the last
+        frame (the creatures' names), for tests that check overlays do not overlap."""
+        out = []
+        for lab in self._labels:
+            if not lab.visible or not lab.text:
+                continue
+            x, y = lab.x, self.height - lab.y
+            w, h = lab.content_width, lab.content_height
+            out.append((x - 0.5 * w, y - h, x + 0.5 * w, y))
+        return out
 
-        Pass ``out`` (that shape and dtype) to have it filled instead of a new array.
-        """
+    def caption_height(self) -> int:
+        """Pixels from the top of the picture that the last drawn caption takes (its
+        margin included), 0 without one: other overlays start below it."""
+        cap = self._caption
+        if cap is None or not cap.visible or not cap.text:
+            return 0
+        margin = round(10 * self.height / 720.0)
+        return int(margin + math.ceil(cap.content_height))
+
+    def begin_overlay(self) -> None:
+        """Make the last drawn picture (antialiased, resolved) the target of 2-D drawing
+        on top of it: the authoring tool's panels are drawn here, so ``read_pixels``,
+        ``save_png`` and ``present`` show them. End with ``end_overlay``."""
         gl = self._gl
         self.window.switch_to()
         self._resolve()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._resolve_fbo)
-        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
-        gl.glReadPixels(0, 0, self.width, self.height, gl.GL_RGB, gl.GL_UNSIGNED_BYTE,
-                        self._raw_ptr)
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
-        if out is None:
-            return self._raw[::-1].copy()
-        if out.shape != self._raw.shape or out.dtype != np.uint8:
-            raise ValueError(f"out must be {self._raw.shape} uint8, got {out.shape} {out.dtype}")
-        np.copyto(out, self._raw[::-1])
-        return out
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._resolve_fbo)
+        gl.glViewport(0, 0, self.width, self.height)
 
-    def save_png(self, path) -> None:
-        """Write the last drawn picture to ``path`` as PNG."""
-        write_png(path, self.read_pixels())
+    def end_overlay(self) -> None:
+        self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
 
-    def present(self) -> None:
-        """Copy the picture into the window's own framebuffer (interactive use)."""
-        gl = self._gl
+    def _picture_fbo(self):
         self._resolve()
-        fw, fh = self.window.get_framebuffer_size()
-        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self._resolve_fbo)
-        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
-        gl.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, fw, fh,
-                             gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
-        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
-
-    def gl_info(self) -> str:
-        """Renderer and version strings of the GL context (for reports)."""
-        from pyglet.gl import gl_info
-
-        return f"{gl_info.get_renderer()} / OpenGL {gl_info.get_version_string()}"
+        return self._resolve_fbo
 
 
 # -- one-shot pictures -------------------------------------------------------------------------------
@@ -616,3 +661,88 @@ def measure_fps(renderer: Renderer, scene: sc.Scene, frames: int = 60,
         else:
             renderer._gl.glFinish()
     return frames / (time.perf_counter() - t0)
+
+
+# -- composing a window from a picture and 2-D panels ---------------------------------------------------
+
+
+class Compositor(_Picture):
+    """A window-sized picture made of a ``Renderer``'s 3-D picture placed in a rectangle
+    and 2-D panels drawn over everything (the authoring tool): the 3-D renderer then only
+    shades the pixels the panels leave free, which is most of a software renderer's cost.
+
+    Same reading interface as ``Renderer``: ``read_pixels``, ``save_png``, ``present``,
+    ``gl_info``, ``width``/``height``."""
+
+    def __init__(self, width: int, height: int, *, window) -> None:
+        from pyglet import gl
+
+        self._gl = gl
+        self.window = window
+        self._size = (0, 0)
+        self.resize(width, height)
+
+    def resize(self, width: int, height: int) -> None:
+        gl = self._gl
+        w, h = max(int(width), 1), max(int(height), 1)
+        if (w, h) == self._size:
+            return
+        self.window.switch_to()
+        if self._size != (0, 0):
+            self._delete()
+        self.width, self.height = w, h
+        self._rb = gl.GLuint(0)
+        gl.glGenRenderbuffers(1, ctypes.byref(self._rb))
+        gl.glBindRenderbuffer(gl.GL_RENDERBUFFER, self._rb)
+        gl.glRenderbufferStorage(gl.GL_RENDERBUFFER, gl.GL_RGBA8, w, h)
+        self._fbo = gl.GLuint(0)
+        gl.glGenFramebuffers(1, ctypes.byref(self._fbo))
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glFramebufferRenderbuffer(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0, gl.GL_RENDERBUFFER, self._rb)
+        status = gl.glCheckFramebufferStatus(gl.GL_FRAMEBUFFER)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+        if status != gl.GL_FRAMEBUFFER_COMPLETE:
+            raise ViewerError(f"the window's framebuffer is incomplete (status {status:#x}) at {w} x {h}")
+        self._size = (w, h)
+        self._raw = np.empty((h, w, 3), dtype=np.uint8)
+        self._raw_ptr = ctypes.c_void_p(self._raw.ctypes.data)
+
+    def _delete(self) -> None:
+        gl = self._gl
+        gl.glDeleteFramebuffers(1, ctypes.byref(self._fbo))
+        gl.glDeleteRenderbuffers(1, ctypes.byref(self._rb))
+
+    def compose(self, picture: Renderer, x: int, y: int, background) -> None:
+        """Clear to ``background`` and copy ``picture`` (drawn already) with its lower left
+        corner at pixel (x, y) from the bottom left."""
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glViewport(0, 0, self.width, self.height)
+        gl.glClearColor(float(background[0]), float(background[1]), float(background[2]), 1.0)
+        gl.glClear(gl.GL_COLOR_BUFFER_BIT)
+        picture._resolve()
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, picture._resolve_fbo)
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, self._fbo)
+        gl.glBlitFramebuffer(0, 0, picture.width, picture.height, int(x), int(y), int(x) + picture.width,
+                             int(y) + picture.height, gl.GL_COLOR_BUFFER_BIT, gl.GL_NEAREST)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+    def begin_overlay(self) -> None:
+        gl = self._gl
+        self.window.switch_to()
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self._fbo)
+        gl.glViewport(0, 0, self.width, self.height)
+
+    def end_overlay(self) -> None:
+        self._gl.glBindFramebuffer(self._gl.GL_FRAMEBUFFER, 0)
+
+    def _picture_fbo(self):
+        return self._fbo
+
+    def close(self) -> None:
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
+        self.window.switch_to()
+        self._delete()

@@ -212,7 +212,7 @@ class ViewerWindow:
         self.window = window
         fw, fh = window.get_framebuffer_size()
         self.renderer = rd.Renderer(fw, fh, window=window)
-        self.camera = self.renderer.frame(self.pages[0])
+        self.camera = self.renderer.frame(self.pages[0])   # framed again below, once the overlays exist
         self._help = pyglet.text.Label(HELP_TEXT, x=8, y=8, anchor_y="bottom", font_size=10,
                                        multiline=True,
                                        width=max(window.width - 16, 100),
@@ -221,6 +221,7 @@ class ViewerWindow:
                                         multiline=True, width=max(window.width - 16, 100),
                                         color=(30, 32, 38, 255))
         self._key, self._mouse = key, mouse
+        self.reframe()
 
         @window.event
         def on_draw():
@@ -290,8 +291,34 @@ class ViewerWindow:
         self.reframe()
 
     def reframe(self) -> None:
+        """Frame the page in the part of the window the text overlays leave free: below
+        the caption and the title, above the help (so no label of a creature lands under
+        them)."""
         r = self.renderer
-        self.camera = self.scene.auto_camera(r.width / r.height)
+        top, bottom = self.reserved()
+        fh = r.height
+        free = max(fh - top - bottom, fh * 0.3)
+        cam = self.scene.auto_camera(r.width / free)
+        cam.zoom(fh / free)
+        cam.pan(0.0, -(0.5 * (top - bottom)), fh)
+        self.camera = cam
+
+    def reserved(self) -> tuple[float, float]:
+        """Framebuffer pixels the overlays take at the top (caption and title lines) and
+        at the bottom (the help), estimated from their font sizes and line counts."""
+        fw, fh = self.window.get_framebuffer_size()
+        k = fh / max(self.window.height, 1)
+        top = 8.0 * k
+        if self.scene.caption and self.scene.show_labels:
+            lines = self.scene.caption.count("\n") + 1
+            top += 10 * fh / 720.0 + lines * 1.45 * 1.2 * 11.0 * fh / 720.0 * 96 / 72
+        title_lines = 2 if self.selected is not None else 1
+        top += title_lines * 1.45 * 12 * 96 / 72 * k
+        bottom = 0.0
+        if self.show_help:
+            lines = max(self._help.content_height / max(self._help.font_size * 96 / 72 * 1.2, 1), 1)
+            bottom = (lines * self._help.font_size * 96 / 72 * 1.45 + 16) * k
+        return top, bottom
 
     def click(self, x: float, y: float) -> tuple[int, int] | None:
         """Select the body under window point (x, y) (pyglet's coordinates: y up)."""
@@ -347,6 +374,31 @@ class ViewerWindow:
             return None
         return pyglet.event.EVENT_HANDLED
 
+    def title_top(self) -> float:
+        """Window y (up) of the top of the title text: 8 units below the top, or below the
+        caption the renderer drew there."""
+        fh = max(self.window.get_framebuffer_size()[1], 1)
+        below = self.renderer.caption_height() * self.window.height / fh
+        return self.window.height - 8 - below
+
+    def overlay_boxes(self) -> dict[str, tuple[float, float, float, float]]:
+        """(x0, y0, x1, y1) window boxes (y down from the top) of the text overlays of the
+        last frame: caption, title and help (when shown). Tests check they never overlap."""
+        h = self.window.height
+        fh = max(self.window.get_framebuffer_size()[1], 1)
+        k = h / fh
+        out = {}
+        cap_h = self.renderer.caption_height() * k
+        if cap_h:
+            cap = self.renderer._caption
+            out["caption"] = (cap.x * k, 0.0, (cap.x + cap.content_width) * k, cap_h)
+        t = self._title
+        out["title"] = (t.x, h - t.y, t.x + t.content_width, h - t.y + t.content_height)
+        if self.show_help:
+            hp = self._help
+            out["help"] = (hp.x, h - hp.y - hp.content_height, hp.x + hp.content_width, h - hp.y)
+        return out
+
     def close(self) -> None:
         """Free the renderer's GL objects, close the window and end ``pyglet.app.run``."""
         import pyglet
@@ -386,6 +438,8 @@ class ViewerWindow:
             actor, body = self.selected
             info = "\n" + sc.describe_body(self.scene.actors[actor].creature, body)
         self._title.text = f"{self.page + 1}/{len(self.pages)}  {names}{more}{info}"
+        # Below the scene's caption (a demo's title line), never on top of it.
+        self._title.y = self.title_top()
         self._title.draw()
         if self.show_help:
             self._help.draw()

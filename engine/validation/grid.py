@@ -184,6 +184,7 @@ def _cell_json(result, source: Source) -> dict:
     d = result.to_json()
     d["source_kind"] = source.kind
     d["reproduce"] = reproduce_command(source, result)
+    d["creature_args"] = source.reproduce()     # the same creature for other tools (menagerie author)
     return d
 
 
