@@ -1,6 +1,6 @@
 """The validation grid's floors (issue 12), measured: pass rate, flips, time.
 
-    .venv/bin/python benchmarks/grid.py                 # library + random 0-999, held out 10000-10199, a 30-creature grid
+    .venv/bin/python benchmarks/grid.py        # library + random 0-999, held out 10000-10199, a 30-creature grid
     .venv/bin/python benchmarks/grid.py --random 100 --heldout 50 --no-daily     # a quicker look
     .venv/bin/python benchmarks/grid.py --pictures --out out/grid-bench          # with the report's pictures
 
@@ -10,7 +10,7 @@ grid``'s own code and writes its report under ``--out`` (``main/``, ``heldout/``
 
     pass_rate, flips, nonfinite, cells, plays, fail, seconds, cells_per_second   (library + seeds 0..N-1)
     heldout_pass_rate, heldout_flips, heldout_cells, heldout_seconds              (seeds 10000..)
-    daily_creatures, daily_seconds                                                (library's first 30, as a user runs it)
+    daily_creatures, daily_seconds                                                (the library's first 30)
 
 ``flips`` counts cells in which some body turns more than 0.5 rad between two 60 Hz
 frames beyond what its goals ask (``rotation_pop``, ``start_pop`` or ``end_pop`` failing).
