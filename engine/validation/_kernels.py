@@ -279,3 +279,52 @@ def joint_separation(body_parent, body_local_joint, body_joint_offset, world_pos
             dz = (world_pos[i, b, 2] - z) - (world_pos[i, p, 2] + w)
             out[i, b] = np.sqrt(dx * dx + dy * dy + dz * dz)
     return out
+
+
+@njit(cache=True)
+def goal_errors(world_pos, world_rot, goal_pos, goal_rot, goal_pw, goal_rw, body_joint_offset, limb_root_of,
+                is_chain, is_spine_goal, chain, reach, norm, scale, full, reach_share):
+    """Per frame and body (``engine.validation.goals``): ``reach_rel`` (a reachable
+    full-weight goal's miss over the limb's reach), ``beyond_rel`` (an unreachable one's miss
+    beyond what a straight limb leaves), ``spine_rel`` (a spine or one-body-limb goal's miss
+    over the size), ``rot_miss`` (angle to a full-weight rotation goal). The root is skipped."""
+    nf, nb = world_pos.shape[0], world_pos.shape[1]
+    reach_rel = np.zeros((nf, nb))
+    beyond_rel = np.zeros((nf, nb))
+    spine_rel = np.zeros((nf, nb))
+    rot_miss = np.zeros((nf, nb))
+    for i in range(nf):
+        for b in range(1, nb):
+            if goal_rw[i, b] >= full:
+                rot_miss[i, b] = _angle_between(world_rot[i, b], goal_rot[i, b])
+            if goal_pw[i, b] < full:
+                continue
+            dx = world_pos[i, b, 0] - goal_pos[i, b, 0]
+            dy = world_pos[i, b, 1] - goal_pos[i, b, 1]
+            dz = world_pos[i, b, 2] - goal_pos[i, b, 2]
+            miss = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if is_spine_goal[b]:
+                spine_rel[i, b] = miss / scale
+                continue
+            if not is_chain[b]:
+                continue
+            r = limb_root_of[b]
+            jx, jy, jz = quat_rotate_t(world_rot[i, r], body_joint_offset[r])
+            rx = world_pos[i, r, 0] - jx
+            ry = world_pos[i, r, 1] - jy
+            rz = world_pos[i, r, 2] - jz
+            tx, ty, tz = goal_pos[i, b, 0], goal_pos[i, b, 1], goal_pos[i, b, 2]
+            limit = reach[b]
+            if goal_rw[i, b] >= full:
+                # with its rotation fixed, the body's joint has a target of its own
+                ox, oy, oz = quat_rotate_t(goal_rot[i, b], body_joint_offset[b])
+                tx -= ox
+                ty -= oy
+                tz -= oz
+                limit = chain[b]
+            d = np.sqrt((tx - rx) ** 2 + (ty - ry) ** 2 + (tz - rz) ** 2)
+            if d <= reach_share * limit:
+                reach_rel[i, b] = miss / norm[b]
+            else:
+                beyond_rel[i, b] = max(miss - max(d - limit, 0.0), 0.0) / norm[b]
+    return reach_rel, beyond_rel, spine_rel, rot_miss

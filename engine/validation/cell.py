@@ -57,6 +57,8 @@ class CellContext:
     chain: np.ndarray               # (nb,) path from the limb root's joint to the body's joint, m
     chain_bodies: np.ndarray        # bodies below the root of a limb (a chain of 2+ bodies)
     spine_goal_bodies: np.ndarray   # spine bodies other than the root, and one-body limbs
+    is_chain: np.ndarray            # (nb,) bool masks of the two
+    is_spine_goal: np.ndarray
     foot_contact_local: np.ndarray  # (nfoot, 3) contact point in the foot's frame
     leg_length: np.ndarray          # (nfoot,) m
     pair_a: np.ndarray
@@ -103,6 +105,7 @@ class CellContext:
             np.allclose(c.body_rest_pos[mirror] * [1, -1, 1], c.body_rest_pos, atol=1e-9 * scale))
         return cls(creature=c, scale=scale, height=height, floor=0.01 * scale, limb_bodies=limb,
                    limb_root_of=root_of, reach=reach, chain=chain, chain_bodies=chained, spine_goal_bodies=spine,
+                   is_chain=np.isin(np.arange(c.nbody), chained), is_spine_goal=np.isin(np.arange(c.nbody), spine),
                    foot_contact_local=contact,
                    leg_length=np.maximum(np.asarray(c.leg_length, float), 1e-6), pair_a=pa, pair_b=pb,
                    pair_rest_depth=rest_depths(c, pa, pb), bone_length=bone,

@@ -39,62 +39,23 @@ REACH_FLOOR = 0.1
 def goal_error(rec, ctx) -> list[Measure]:
     c = rec.creature
     names = c.body_names
-    n = rec.nframe
-    if n == 0:
+    if rec.nframe == 0:
         return []
-    pos, rot = rec.world_pos, rec.world_rot
-    full = rec.goal_pw >= FULL
-    full[:, 0] = False
-    miss = np.linalg.norm(pos - rec.goal_pos, axis=-1)               # (n, nb) m
-    reach_rel = np.zeros_like(miss)
-    beyond_rel = np.zeros_like(miss)
-    spine_rel = np.zeros_like(miss)
-    limb = ctx.chain_bodies                                           # bodies on a limb of 2+ bodies
-    if limb.size:
-        roots = ctx.limb_root_of[limb]
-        root_joint = pos[:, roots] - _rotate(rot[:, roots], c.body_joint_offset[roots])
-        # with a full rotation goal the joint has a target of its own
-        with_rot = rec.goal_rw[:, limb] >= FULL
-        target = np.where(with_rot[..., None],
-                          rec.goal_pos[:, limb] - _rotate(rec.goal_rot[:, limb], c.body_joint_offset[limb]),
-                          rec.goal_pos[:, limb])
-        dist = np.linalg.norm(target - root_joint, axis=-1)                   # (n, k)
-        reach = np.where(with_rot, ctx.chain[limb][None, :], ctx.reach[limb][None, :])
-        inside = dist <= REACH_SHARE * reach
-        norm = np.maximum(ctx.reach[limb], REACH_FLOOR * ctx.scale)[None, :]
-        f = full[:, limb]
-        reach_rel[:, limb] = np.where(f & inside, miss[:, limb] / norm, 0.0)
-        over = np.maximum(miss[:, limb] - np.maximum(dist - reach, 0.0), 0.0) / norm
-        beyond_rel[:, limb] = np.where(f & ~inside, over, 0.0)
-    spine = ctx.spine_goal_bodies
-    if spine.size:
-        spine_rel[:, spine] = np.where(full[:, spine], miss[:, spine] / ctx.scale, 0.0)
+    reach_rel, beyond_rel, spine_rel, ang = K.goal_errors(
+        rec.world_pos, rec.world_rot, rec.goal_pos, rec.goal_rot, rec.goal_pw, rec.goal_rw, c.body_joint_offset,
+        ctx.limb_root_of, ctx.is_chain, ctx.is_spine_goal, ctx.chain, ctx.reach,
+        np.maximum(ctx.reach, REACH_FLOOR * ctx.scale), ctx.scale, FULL, REACH_SHARE)
     out = [worst("reach_miss", reach_rel, "reach", names, rec.t),
            worst("beyond_reach", beyond_rel, "reach", names, rec.t),
            worst("spine_miss", spine_rel, "size", names, rec.t)]
-    rfull = rec.goal_rw >= FULL
-    rfull[:, 0] = False
-    ang = np.zeros((n, c.nbody))
-    if rfull.any():
-        idx = np.nonzero(rfull)
-        qa = np.ascontiguousarray(rot[idx])
-        qb = np.ascontiguousarray(rec.goal_rot[idx])
-        ang[idx] = _angles(qa, qb)
     look = np.zeros(c.nbody, bool)
     look[rec.meta.get("lookat_bodies", np.zeros(0, np.int64))] = True
     out.append(worst("rotation_miss", np.where(look[None, :], 0.0, ang), "rad", names, rec.t))
     out.append(worst("lookat_miss", np.where(look[None, :], ang, 0.0), "rad", names, rec.t))
+    npos = int((rec.goal_pw[:, 1:] >= FULL).sum())
+    nrot = int((rec.goal_rw[:, 1:] >= FULL).sum())
     for m in out:
-        m.detail["goal_frames"] = int(full.sum()) if m.name != "rotation_miss" else int(rfull.sum())
+        m.detail["goal_frames"] = nrot if m.name in ("rotation_miss", "lookat_miss") else npos
     return out
 
 
-def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + q[..., :1] * t + np.cross(u, t)
-
-
-def _angles(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
-    """Angle between each pair of rotations qa[k], qb[k], rad."""
-    return K.step_angles(np.ascontiguousarray(np.stack([qa, qb])))[0]
