@@ -276,7 +276,7 @@ def test_grid_serial_and_on_a_dask_cluster_agree():
     sources = [G.Source("file", "creatures/humanoid.yaml"), G.Source("random", "7")]
     paths = ["animations/crouch.yaml", WAVE]
     serial = G.run_grid(sources, paths, workers=0, progress=False)
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
         with Client(cluster) as client:
             dask = G.run_grid(sources, paths, scheduler=client.scheduler.address, progress=False)
     key = lambda c: (c["creature"], c["animation"], c["variant_id"])  # noqa: E731

@@ -286,7 +286,7 @@ def _run_dask(run, sources, paths, task, workers, address, variant, bar, on_task
         run.scheduler = address
     else:
         n = workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                silence_logs=logging.CRITICAL)
         client = Client(cluster)
         run.scheduler = "LocalCluster"

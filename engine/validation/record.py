@@ -156,6 +156,10 @@ class PlaySpec:
 
 #: Members per crowd in ``record_cells`` (recordings of a crowd are held at once).
 CROWD = 16
+#: Stack arrays a recording keeps (stack name -> Recording field).
+_STACKED = {"world_pos": "world_pos", "world_rot": "world_rot", "goal_pos": "goal_pos", "goal_rot": "goal_rot",
+            "goal_pw": "goal_pw", "goal_rw": "goal_rw", "root_pos": "root_pos", "root_rot": "root_rot",
+            "driven": "driven"}
 
 
 def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, settle: float = SETTLE,
@@ -192,33 +196,35 @@ def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, s
                 recs[-1].variant_id = handles[-1][0].payload.bound.variant.id
             s = chars[0]._stack
             a = s.player
+            m = len(group)
             n_max = max(lengths[k] for k in group)
-            rows = np.arange(len(group))
+            # the whole stack copied once per frame, split per member at the end
+            frames = {name: np.zeros((n_max,) + getattr(s, name).shape, getattr(s, name).dtype) for name in _STACKED}
+            clip_time = np.full((n_max, m), -1.0)
+            weight = np.zeros((n_max, m))
+            tick = np.zeros(n_max)
+            slots = [h.slot for h, _, _ in handles]
             for i in range(n_max):
                 for (h, n_play, looping), ch in zip(handles, chars, strict=True):
                     if looping and i == n_play:
                         ch.stop(h, fade=fade)
                 t0 = time.perf_counter()
                 cr.tick(dt)
-                per = (time.perf_counter() - t0) / len(group)
-                for m, rec in zip(rows, recs, strict=True):
-                    if i >= rec.t.shape[0]:
-                        continue
-                    h = handles[m][0]
-                    rec.tick_s[i] = per
-                    rec.t[i] = (i + 1) * dt
+                tick[i] = (time.perf_counter() - t0) / m
+                for name in _STACKED:
+                    frames[name][i] = getattr(s, name)
+                for j, (h, _, _) in enumerate(handles):
                     if h.playing:
-                        rec.clip_time[i] = a.time[m, h.slot]
-                        rec.weight[i] = a.effective[m, h.slot]
-                    rec.world_pos[i] = s.world_pos[m]
-                    rec.world_rot[i] = s.world_rot[m]
-                    rec.goal_pos[i] = s.goal_pos[m]
-                    rec.goal_rot[i] = s.goal_rot[m]
-                    rec.goal_pw[i] = s.goal_pw[m]
-                    rec.goal_rw[i] = s.goal_rw[m]
-                    rec.root_pos[i] = s.root_pos[m]
-                    rec.root_rot[i] = s.root_rot[m]
-                    rec.driven[i] = s.driven[m]
+                        clip_time[i, j] = a.time[j, slots[j]]
+                        weight[i, j] = a.effective[j, slots[j]]
+            for j, rec in enumerate(recs):
+                n = rec.t.shape[0]
+                rec.t[:] = (np.arange(n) + 1) * dt
+                rec.tick_s[:] = tick[:n]
+                rec.clip_time[:] = clip_time[:n, j]
+                rec.weight[:] = weight[:n, j]
+                for name, field_name in _STACKED.items():
+                    getattr(rec, field_name)[:] = frames[name][:n, j]
         except Exception:  # noqa: BLE001 - find the member at fault, alone
             recs = [record_cell(creature, specs[k].animation, specs[k].variant, specs[k].targets, fps=fps,
                                 settle=settle, fade=fade) for k in group]
