@@ -52,6 +52,8 @@ PARENT_SHARE = 0.3
 HANDOFF_SHARE = 0.9
 #: Largest deviation of a simulated lever from the rigid one, as a share of the lever.
 DEVIATION = 0.9
+#: Largest change of a body's deflection in a 60 Hz frame, as a share of its lever.
+RATE = 0.25
 
 
 @njit(cache=True)
@@ -161,18 +163,27 @@ def jiggle_kernel(
             e_before = 0.0
             for k in range(3):
                 e_before += state_err[i, k] * state_err[i, k]
-            e2 = 0.0
-            v2 = 0.0
+            step2 = 0.0
             for k in range(3):
                 u_new = (target[k] - state_target[i, k]) / dt
                 du = u_new - state_target_vel[i, k]
                 ev = (state_err_vel[i, k] - du - dt * w * w * state_err[i, k]) / denom
-                state_err[i, k] = state_err[i, k] + dt * ev
-                state_err_vel[i, k] = ev
+                offset[k] = dt * ev                      # this step's change of the deflection
+                step2 += offset[k] * offset[k]
                 state_target[i, k] = target[k]
                 state_target_vel[i, k] = u_new
+            # The deflection changes by at most RATE of the lever per 1/60 s: a short body
+            # (a fingertip) kicked by its parent's stop would otherwise swing its whole
+            # clamp in one frame, a flip; longer bodies never reach the limit.
+            most = RATE * lever_len0 * dt * 60.0
+            kick = most / np.sqrt(step2) if step2 > most * most else 1.0
+            e2 = 0.0
+            v2 = 0.0
+            for k in range(3):
+                state_err[i, k] += kick * offset[k]
+                state_err_vel[i, k] = kick * offset[k] / dt
                 e2 += state_err[i, k] * state_err[i, k]
-                v2 += ev * ev
+                v2 += state_err_vel[i, k] * state_err_vel[i, k]
             # Clamp the deflection (a deflection beyond the limit may only shrink: a body
             # that just became passive far from its rigid target, at the end of a clip,
             # swings back from where it was instead of jumping to the limit); sleep when
