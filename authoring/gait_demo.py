@@ -51,8 +51,8 @@ def walk_one(name: str, style, seconds: float, dt: float = 1.0 / 60.0):
     """Walk one library creature along an S-curve on rolling ground; returns the
     character, the terrain, the root trail (k, 3) and footprints (m, 3)."""
     import engine
-    from engine.gait.metrics import contact_points, rolling_terrain
     from engine.gait.path import PathFollower, heading_of
+    from engine.validation.gait import contact_points, rolling_terrain
 
     c = engine.load_creature(os.path.join(LIBRARY_CREATURES, f"{name}.yaml"))
     ch = engine.Character(c)

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/gait.py [--random 100] [--first-seed 0] [--no-library] [--seconds 8]
                                         [--terrain-only] [--only NAME]
 
-Each creature walks ``engine.gait.metrics.run_scenario``: a curved path with speed
+Each creature walks ``engine.validation.gait.run_scenario``: a curved path with speed
 changes, a sudden stop, a reverse and a sharp turn with a sidestep, on rolling terrain
 scaled to its legs (``--flat``: also on flat ground; both are measured by default),
 measured on the runtime's output (``char.world_positions`` after the IK). Prints a table
@@ -16,7 +16,7 @@ leg length: their gait found no stride the IK meets exactly, so they stand; a cr
 "leg length" is the spacing of its pseudo-feet). ``--first-seed 100 --no-library`` runs a
 held-out set of random creatures (seeds 100-199) that no gait choice was tuned on.
 
-Continuity bound (``engine.gait.metrics.continuity_bound``): foot speed <= 12 leg lengths/s
+Continuity bound (``engine.validation.gait.continuity_bound``): foot speed <= 12 leg lengths/s
 and root acceleration <= 25 leg lengths/s^2 (knee-less compass legs: 120, their hips' arc
 turns over at each double support); ``over_continuity_bound`` lists the creatures past it.
 """
@@ -37,9 +37,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 import engine  # noqa: E402
-from engine.gait.metrics import gait_ms, run_scenario  # noqa: E402
 from engine.model import build_creature  # noqa: E402
 from engine.model.random import random_creature_def  # noqa: E402
+from engine.validation.gait import gait_ms, run_scenario  # noqa: E402
 
 
 def creatures(n_random: int, only: str | None, first_seed: int = 0, library: bool = True):

@@ -21,11 +21,11 @@ from engine.gait import (
     parse_style_text,
     style_names,
 )
-from engine.gait.metrics import continuity_bound, rolling_terrain, run_scenario
 from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test biped
 from engine.mathx import quat_conj, quat_mul
 from engine.model import build_creature, creature_from_text
 from engine.model.random import random_creature_def
+from engine.validation.gait import continuity_bound, rolling_terrain, run_scenario
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ speed with procedural waves for 7+ feet (``engine.gait.style``, files in
 style's flight path, hip motion and root motion, floating and inch-worm crawling for
 creatures without feet. The per-frame work is two numba kernels around one call of the
 game's terrain height function (``engine.gait._kernels``). ``PathFollower`` turns a
-polyline into locomote commands; ``engine.gait.metrics`` measures a gait on the runtime's
+polyline into locomote commands; ``engine.validation.gait`` measures a gait on the runtime's
 output (``benchmarks/gait.py``).
 """
 
