@@ -28,17 +28,46 @@ from engine.errors import MenagerieError
 
 
 def cmd_view(args: argparse.Namespace) -> int:
-    from authoring.viewer import view_file
+    from authoring import render as rd
+    from authoring.viewer import _free_path, view_file
+    from engine import compiling
+    from engine.outputs import output_file
+    from engine.paths import creature_path
 
-    if not os.path.exists(args.file):
-        raise MenagerieError(f"{args.file}: no such file")
-    out = view_file(args.file, snapshot=args.snapshot)
-    if out:
+    path = creature_path(args.file)
+    snapshot, fallback = args.snapshot, False
+    if snapshot is not None:
+        output_file(snapshot, args.force, flag="--snapshot", suffixes=(".png",))
+    elif rd.want_headless():
+        # No window can open: a picture in out/, never over an earlier one.
+        name = os.path.splitext(os.path.basename(path))[0]
+        snapshot, fallback = _free_path(os.path.join("out", f"{name}.png")), True
+        os.makedirs("out", exist_ok=True)
+    compiling.notice("viewer")
+    out = view_file(path, snapshot=snapshot)
+    if fallback:
+        print(f"menagerie view: no display here (DISPLAY is not set): wrote {out} "
+              "(--snapshot OUT.png names the picture)")
+    elif out:
         print(f"wrote {out}")
     return 0
 
 
+#: What the demo writes into --out (the gait demo writes into --out/gaits).
+DEMO_OUTPUTS = ("contact_sheet.png", "frame_*.png", "demo.gif", "gaits", "gait_contact_sheet.png")
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
+    from authoring import render as rd
+    from engine import compiling
+    from engine.outputs import output_dir
+
+    if not args.seconds >= 0.1:
+        raise MenagerieError(f"--seconds must be at least 0.1 (a few frames), got {args.seconds:g}")
+    headless = args.headless or rd.want_headless()
+    if headless:
+        output_dir(args.out, args.force, writes=DEMO_OUTPUTS)
+    compiling.notice("viewer")
     if args.gaits:
         from authoring.gait_demo import run_gait_demo
 
@@ -46,9 +75,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from authoring.demo import run_demo
 
     status = run_demo(headless=args.headless, out_dir=args.out, seconds=args.seconds)
-    from authoring import render as rd
-
-    if status == 0 and (args.headless or rd.want_headless()):
+    if status == 0 and headless:
         # Without a window the demo also renders the gait contact sheet (walking, trotting,
         # crawling on rolling ground along curved paths) next to the zoo.
         from authoring.gait_demo import run_gait_demo
@@ -59,7 +86,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def cmd_author(args: argparse.Namespace) -> int:
     from authoring.author import run_author
+    from engine import compiling
 
+    compiling.notice("viewer")
     creatures = list(args.creatures) + list(args.creatures_opt or [])
     return run_author(args.animation, creatures, random_count=args.random, first_seed=args.first_seed,
                       headless=args.headless, snapshot=args.snapshot, width=args.width, height=args.height,
@@ -69,9 +98,11 @@ def cmd_author(args: argparse.Namespace) -> int:
 
 def cmd_play(args: argparse.Namespace) -> int:
     from authoring.play import run_play
+    from engine import compiling
 
     if not os.path.exists(args.animation):
         raise MenagerieError(f"{args.animation}: no such file")
+    compiling.notice("viewer")
     return run_play(args.creature, args.animation, snapshot=args.snapshot, gif=args.gif, time=args.time,
                     force=args.force)
 
@@ -82,14 +113,17 @@ def add_tool_commands(sub) -> None:
 
     demo = sub.add_parser("demo", help="the creature zoo, animated")
     demo.add_argument("--headless", action="store_true", help="render offscreen even with a display")
-    demo.add_argument("--out", default="out/demo", help="where headless output goes (default out/demo)")
-    demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds")
+    demo.add_argument("--out", default="out/demo", metavar="DIR",
+                      help="folder the headless output goes into (default out/demo)")
+    demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds (>= 0.1)")
+    demo.add_argument("--force", action="store_true", help="replace an earlier demo's output in --out")
     demo.add_argument("--gaits", action="store_true", help="the gait demo: creatures walking on rolling ground")
     demo.set_defaults(func=cmd_demo)
 
     view = sub.add_parser("view", help="look at a creature file")
-    view.add_argument("file")
+    view.add_argument("file", help="library name (humanoid), creature file or BVH skeleton")
     view.add_argument("--snapshot", metavar="OUT.png", help="render offscreen to a PNG and exit")
+    view.add_argument("--force", action="store_true", help="replace an existing snapshot")
     view.set_defaults(func=cmd_view)
 
     author = sub.add_parser("author", help="the authoring tool: one animation on several creatures")
@@ -128,8 +162,11 @@ def add_tool_commands(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from engine.cli import version
+
     parser = argparse.ArgumentParser(prog="menagerie", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action="version", version=f"menagerie {version()}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_tool_commands(sub)
     add_batch_commands(sub)
     return parser

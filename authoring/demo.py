@@ -111,7 +111,7 @@ def run_demo(headless: bool = False, out_dir: str = "out/demo", seconds: float =
         return _headless(zoo, out_dir, seconds)
     from authoring.viewer import view
 
-    view(zoo.zoo, update=zoo.step, title="Menagerie demo")
+    view(zoo.zoo, update=zoo.step, title="Menagerie demo", instead=f"menagerie demo --headless --out {out_dir}")
     return 0
 
 

@@ -34,9 +34,10 @@ def _setup(creature_spec: str, animation_path: str):
     return creature, anim, ch, actor, scene
 
 
-def _check_out(path: str, force: bool) -> None:
-    if os.path.exists(path) and not force:
-        raise MenagerieError(f"{path} exists (pass --force to overwrite it)")
+def _check_out(path: str, force: bool, flag: str, suffix: str) -> None:
+    from engine.outputs import output_file
+
+    output_file(path, force, flag=flag, suffixes=(suffix,))
 
 
 def run_play(creature_spec: str, animation_path: str, *, snapshot: str | None = None, gif: str | None = None,
@@ -54,20 +55,23 @@ def run_play(creature_spec: str, animation_path: str, *, snapshot: str | None = 
         view(scene, update=update, title=f"Menagerie: {anim.name} on {creature.name}")
         return 0
     if snapshot is None and gif is None:
-        snapshot = f"{anim.name}_{creature.name}.png"
+        from authoring.viewer import _free_path
+
+        os.makedirs("out", exist_ok=True)
+        snapshot = _free_path(os.path.join("out", f"{anim.name}_{creature.name}.png"))
         print(f"menagerie play: no display here, writing {snapshot} instead")
-    for out in (snapshot, gif):
+    for out, flag, suffix in ((snapshot, "--snapshot", ".png"), (gif, "--gif", ".gif")):
         if out is not None:
-            _check_out(out, force)
+            _check_out(out, force, flag, suffix)
+    t = anim.length / 2 if time is None else float(time)
+    if not 0.0 <= t <= anim.length:
+        raise MenagerieError(f"--time must be within 0..{anim.length:g} s, got {t:g}")
     # Frame the whole animation once so the camera does not jump.
     nframe = max(int(round(anim.length * FPS)), 1)
     poses = []
     for _ in range(nframe):
         ch.tick(1.0 / FPS)
         poses.append((ch.world_positions.copy(), ch.world_rotations.copy()))
-    t = anim.length / 2 if time is None else float(time)
-    if not 0.0 <= t <= anim.length:
-        raise MenagerieError(f"--time must be within 0..{anim.length:g} s, got {t:g}")
     with rd.Renderer(width, height) as r:
         boxes = []
         for p, q in poses:

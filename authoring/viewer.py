@@ -98,8 +98,9 @@ def view_file(path, snapshot=None, *, width: int = 1280, height: int = 720):
     Returns the PNG path, or None after an interactive session.
     A bad file raises ``engine.errors.CreatureError`` naming the file and line."""
     import engine
+    from engine.io.sources import creature_from_file
 
-    creature = engine.load_creature(path)
+    creature = creature_from_file(path) if str(path).lower().endswith(".bvh") else engine.load_creature(path)
     scene = sc.Scene(actors=[sc.Actor(creature, label=creature.name)])
     if snapshot is not None:
         return rd.render_png(scene, snapshot, width, height)
@@ -109,10 +110,11 @@ def view_file(path, snapshot=None, *, width: int = 1280, height: int = 720):
 
 def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
          update: Callable[[float], None] | None = None, title: str = "Menagerie",
-         fallback_path: str | None = None):
+         fallback_path: str | None = None, instead: str = "menagerie view FILE --snapshot out.png"):
     """Open the interactive viewer on a Scene, an Actor, a Creature or a list of them.
 
-    ``update(dt)`` is called before every frame (the demo moves its actors there).
+    ``update(dt)`` is called before every frame (the demo moves its actors there);
+    ``instead`` is the command a failed window suggests.
     Without a display (or with ``MENAGERIE_HEADLESS=1``) no window can open: a snapshot
     is written to ``fallback_path`` (default ``menagerie_view.png``; ``_2``, ``_3``... are
     added rather than overwrite a file) instead, the path is printed and returned.
@@ -137,8 +139,8 @@ def view(scene_or_creatures, *, width: int = 1280, height: int = 720,
     except Exception as exc:  # pyglet's display and context errors have no common base
         raise rd.ViewerError(
             f"cannot open a window on DISPLAY={os.environ.get('DISPLAY')!r} "
-            f"({type(exc).__name__}: {exc}); write a picture instead (menagerie view FILE "
-            "--snapshot out.png) or run with MENAGERIE_HEADLESS=1") from None
+            f"({type(exc).__name__}: {exc}); write pictures instead ({instead}) or run with "
+            "MENAGERIE_HEADLESS=1") from None
     try:
         pyglet.app.run()
     finally:

@@ -25,9 +25,10 @@ sys.path.insert(0, ROOT)
 from authoring.render import Renderer, want_headless  # noqa: E402
 from authoring.scene import Actor, Label, Scene  # noqa: E402
 from engine.io import bvh_body_poses, creature_from_bvh, load_bvh  # noqa: E402
+from engine.paths import shared_data  # noqa: E402
 from engine.response.tracking import ControlOptions, MocapRig, TrackingParams, VelocityScale, track  # noqa: E402
 
-WALK = "/work/shared/data/mocap/cmu_02_01_walk.bvh"
+WALK = str(shared_data("mocap", "cmu_02_01_walk.bvh"))  # $MENAGERIE_SHARED or ../shared
 ZOMBIE = ControlOptions(uncontrolled=("LeftHand", "LeftFoot"), locked=("LeftLeg",),
                         mass={"LeftFoot": 5.0, "LeftLeg": 10.0, "LHipJoint": 20.0, "LeftHand": 0.25,
                               "LeftForeArm": 2.0, "LeftArm": 5.0})

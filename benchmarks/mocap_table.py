@@ -24,9 +24,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from engine.io import load_bvh  # noqa: E402
+from engine.paths import shared_data  # noqa: E402
 from engine.response.tracking import MODES, MocapRig, TrackingParams, track, tune  # noqa: E402
 
-MOCAP = "/work/shared/data/mocap"
+MOCAP = str(shared_data("mocap"))  # $MENAGERIE_SHARED or ../shared
 FILES = [
     ("walk", "cmu_02_01_walk.bvh"),
     ("walk (start-walk-stop)", "cmu_131_01_start_walk_stop_3dsmax.bvh"),

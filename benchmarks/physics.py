@@ -33,6 +33,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 import engine  # noqa: E402
+from engine.paths import shared_data  # noqa: E402
 from engine.physics import (  # noqa: E402
     BodySpec,
     PhysicsState,
@@ -46,7 +47,7 @@ from engine.physics.model import SHAPE_BOX, SHAPE_SPHERE  # noqa: E402
 
 DT = 0.0005
 ID = np.array([1.0, 0.0, 0.0, 0.0])
-WALK = "/work/shared/data/mocap/cmu_02_01_walk.bvh"
+WALK = str(shared_data("mocap", "cmu_02_01_walk.bvh"))  # $MENAGERIE_SHARED or ../shared
 
 
 # ---------------------------------------------------------------------------------------

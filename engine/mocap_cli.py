@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 
@@ -69,6 +70,18 @@ def _rig_and_params(args):
     return rig, params
 
 
+def _check_outputs(args) -> None:
+    """Every output checked before the simulation starts (none is lost to a late error)."""
+    from engine.outputs import output_file
+
+    if getattr(args, "out", None):
+        output_file(args.out, args.force, flag="--out", suffixes=(".bvh",))
+    if args.report:
+        output_file(args.report, args.force, flag="--report", suffixes=(".json",))
+    if getattr(args, "out", None) and args.report and os.path.abspath(args.out) == os.path.abspath(args.report):
+        raise MenagerieError(f"{args.out}: --out and --report name the same file")
+
+
 def _write_json(path: str, data: dict, force: bool) -> None:
     if os.path.exists(path) and not force:
         raise MenagerieError(f"{path} exists; pass --force to replace it")
@@ -80,15 +93,24 @@ def _write_json(path: str, data: dict, force: bool) -> None:
         f.write("\n")
 
 
+def _meaning(params) -> str:
+    """What the error figure mostly is, in words."""
+    if params.gravity_comp:
+        return "--gravity-comp holds the bodies up against gravity; what is left is tracking lag"
+    return (f"mostly the paper's controller sagging under gravity (velocity error g/K_f = {9.81 / params.k_f:.2f} "
+            "m/s); --gravity-comp (not in the paper) removes it")
+
+
 def cmd_mocap_simulate(args: argparse.Namespace) -> int:
     """Simulate one capture, print the error summary, write the BVH and the report."""
+    from engine import compiling
     from engine.io import save_bvh
     from engine.response.tracking import VelocityScale, track
 
-    rig, params = _rig_and_params(args)
+    _check_outputs(args)
     scales = [VelocityScale.parse(s) for s in (args.scale or ())]
-    if args.out and os.path.exists(args.out) and not args.force:
-        raise MenagerieError(f"{args.out} exists; pass --force to replace it")
+    rig, params = _rig_and_params(args)
+    compiling.notice("physics")
     result = track(rig, params, scales=scales)
     report = result.report()
     print(f"{os.path.basename(args.file)}  mode {rig.mode}  frames {rig.nframe}  bodies {rig.model.nbody}")
@@ -99,6 +121,7 @@ def cmd_mocap_simulate(args: argparse.Namespace) -> int:
           f"({result.realtime_factor:.1f}x real time)")
     worst = sorted(report["joints"].items(), key=lambda kv: -kv[1]["mse_m2"])[:5]
     print("  worst joints: " + ", ".join(f"{n} {v['mse_m2']:.5f}" for n, v in worst))
+    print(f"  {math.sqrt(max(result.mse, 0.0)) * 100:.1f} cm RMS: {_meaning(params)}")
     if args.out:
         save_bvh(result.to_bvh(), args.out, overwrite=True)
         print(f"wrote {args.out}")
@@ -110,9 +133,12 @@ def cmd_mocap_simulate(args: argparse.Namespace) -> int:
 
 def cmd_mocap_tune(args: argparse.Namespace) -> int:
     """The paper's Monte Carlo search of (order, K_f, K_vc) on one capture."""
+    from engine import compiling
     from engine.response.tracking import tune
 
+    _check_outputs(args)
     rig, params = _rig_and_params(args)
+    compiling.notice("physics")
 
     def progress(i, n, p, mse, best):
         print(f"  point {i + 1}/{args.points} order {n:2d}  K_f {p.k_f:8.3f}  K_vc {p.k_vc:6.4f}  "
@@ -153,20 +179,24 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--uncontrolled", action="append", help="bodies left uncontrolled, A,B (repeatable)")
     p.add_argument("--lock", action="append", help="joints locked (constrained mode), A,B (repeatable)")
     p.add_argument("--mass", action="append", help="body masses, JOINT=KG[,JOINT=KG] (repeatable)")
-    p.add_argument("--report", default=None, help="write the report as JSON")
+    p.add_argument("--report", default=None, metavar="FILE.json", help="write the report as JSON")
     p.add_argument("--force", action="store_true", help="replace existing output files")
 
 
 def add_mocap_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``mocap simulate`` and ``mocap tune`` to the ``menagerie`` command's sub-parsers."""
     mocap = subparsers.add_parser("mocap", help="motion capture replayed on physical bodies")
+
+    def need_subcommand(args):
+        raise MenagerieError(f"{mocap.prog}: say which: simulate or tune (see {mocap.prog} --help)")
+
+    mocap.set_defaults(func=need_subcommand)
     sub = mocap.add_subparsers(dest="mocap_command", metavar="simulate|tune")
-    sub.required = True
     sim = sub.add_parser("simulate", help="simulate a capture, write BVH and an error report")
     _common(sim)
     sim.add_argument("--scale", action="append",
                      help="asymmetric scaling JOINT:K or JOINT:K@F0-F1, e.g. RightFoot:1.2@200-600 (repeatable)")
-    sim.add_argument("--out", default=None, help="write the simulated motion as BVH")
+    sim.add_argument("--out", default=None, metavar="FILE.bvh", help="write the simulated motion as BVH")
     sim.set_defaults(func=cmd_mocap_simulate)
     tun = sub.add_parser("tune", help="Monte Carlo search of order, K_f and K_vc (Wilke & Semwal Algorithm 1)")
     _common(tun)

@@ -58,3 +58,17 @@ def library_creature(name: str) -> Path:
         names = sorted(p.stem for p in LIBRARY_CREATURES.glob("*.yaml"))
         raise MenagerieError(f"no library creature '{name}' in {LIBRARY_CREATURES} (there are: {', '.join(names)})")
     return path
+
+
+def creature_path(spec: str) -> str:
+    """What a command's CREATURE argument names: a library creature (``humanoid``, no
+    suffix) or a file (creature YAML, BVH skeleton). Raises naming both readings when it
+    is neither."""
+    spec = os.fspath(spec)
+    if os.path.isfile(spec):
+        return spec
+    if not os.path.splitext(spec)[1] and os.sep not in spec:
+        return str(library_creature(spec))
+    if os.path.isdir(spec):
+        raise MenagerieError(f"{spec}: is a folder; a creature file or a library name is wanted")
+    raise MenagerieError(f"{spec}: no such file")

@@ -36,6 +36,7 @@ import numba
 import numpy as np
 
 from engine import _runtime_kernels as RK
+from engine import compiling
 from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
@@ -171,6 +172,7 @@ class Character:
                  nslot: int = 8, nlayer: int = 4, ik_params: IKParams = DEFAULT_PARAMS) -> None:
         if not isinstance(creature, Creature):
             raise TypeError(f"Character needs a Creature, got {type(creature).__name__}")
+        compiling.notice("runtime")   # once per process, when numba's cache is cold
         self.creature = creature
         self.stages = Stages()
         self.player = Player(nslot, nlayer)

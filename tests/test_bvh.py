@@ -1,7 +1,7 @@
 """BVH import/export and BVH skeletons as creatures.
 
 Opens with the list of invalid BVH texts, each with the error and line it must raise; then
-every real capture in /work/shared/data/mocap (counts from SOURCES.md), forward kinematics
+every real capture in the shared data's ``mocap`` folder (``engine.paths.shared_data``) (counts from SOURCES.md), forward kinematics
 against a slow per-joint 4x4-matrix reference, the axis map, round trips, and creatures
 built from every file.
 """
@@ -46,8 +46,9 @@ from engine.io.bvh_creature import (
 )
 from engine.model import build_creature
 from engine.model.caps import CAP_BIT
+from engine.paths import has_shared_data, shared_data
 
-MOCAP = "/work/shared/data/mocap"
+MOCAP = str(shared_data("mocap")) if has_shared_data() else ""
 FILES = sorted(glob.glob(os.path.join(MOCAP, "*.bvh")))
 
 # A two-joint skeleton; line numbers are used by the invalid-input list below.
@@ -350,7 +351,7 @@ def test_fk_preserves_bone_lengths_over_whole_clip(clips):
 
 # -- the real captures -------------------------------------------------------------------
 
-# From /work/shared/data/SOURCES.md: joints, end sites, channels, frames in the file, frame time.
+# From the shared data's SOURCES.md: joints, end sites, channels, frames in the file, frame time.
 EXPECTED = {
     "boxing_toes_punch_hit_fall.bvh": (21, 5, 66, 3070, 0.01),
     "cmu_01_01_playground_forward_jumps.bvh": (31, 7, 96, 2752, 0.0083333),

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from engine.io import load_bvh, parse_bvh_text
+from engine.paths import has_shared_data, shared_data
 from engine.response._kernels import welford_update
 from engine.response.tracking import (
     MODES,
@@ -32,7 +33,7 @@ from engine.response.tracking import (
     tune,
 )
 
-WALK = "/work/shared/data/mocap/cmu_02_01_walk.bvh"
+WALK = str(shared_data("mocap", "cmu_02_01_walk.bvh")) if has_shared_data() else ""
 needs_walk = pytest.mark.skipif(not os.path.exists(WALK), reason="CMU walk capture not available")
 
 # A three-joint arm whose root slides along +z (BVH axes: Menagerie +x) at 1 unit/frame

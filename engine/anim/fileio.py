@@ -258,6 +258,9 @@ def parse_animation_text(text: str, path: str | None = None) -> Animation:
     """Parse and validate animation YAML text (``path`` names the file in errors)."""
     ctx = _Ctx(path)
     root = read_yaml_located(text, path, error=AnimationError)
+    if isinstance(root.value, dict) and "bodies" in root.value and "channels" not in root.value:
+        ctx.fail("this looks like a creature file (it has 'bodies'), not an animation (an animation file has "
+                 "'channels'); pass it where a creature is wanted", root.line, None)
     top = _mapping(root, ctx, None, _TOP)
     if "format" not in top:
         ctx.fail(f"missing 'format: {FORMAT_VERSION}'", root.line, "format")

@@ -154,6 +154,10 @@ def parse_creature_text(text: str, path: str | None = None) -> CreatureDef:
         raise CreatureError("the top level must be a mapping with 'format', 'name' and 'bodies'",
                             path=path, line=root.line)
     top = root.value
+    if "bodies" not in top and ("channels" in top or "length" in top):
+        raise CreatureError("this looks like an animation file (it has 'channels' or 'length'), not a creature "
+                            "(a creature file has 'bodies'); pass it where an animation is wanted",
+                            path=path, line=root.line)
     for key, item in top.items():
         if key not in _TOP_FIELDS:
             raise CreatureError(f"unknown top-level field '{key}' (known: {', '.join(_TOP_FIELDS)})",
@@ -226,6 +230,10 @@ def _parse_body(item: _Located, path: str | None) -> BodyDef:
 def read_creature_def(path: str | os.PathLike) -> CreatureDef:
     """Read a creature file into a ``CreatureDef``; I/O and parse errors name the file."""
     path_str = os.fspath(path)
+    if path_str.lower().endswith(".bvh") and os.path.isfile(path_str):
+        raise CreatureError("a BVH file, not a creature file: import it with 'menagerie creatures from-bvh "
+                            f"{path_str} --out NAME.yaml' (view, play, author and grid also take BVH skeletons)",
+                            path=path_str)
     try:
         with open(path_str, encoding="utf-8") as f:
             text = f.read()

@@ -42,6 +42,7 @@ from __future__ import annotations
 import math
 import re
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -102,6 +103,14 @@ class TrackingParams:
                                 kind="parameter", subject="substeps")
 
 
+#: A scale's last frame when it has no window: to the end of the clip.
+_TO_THE_END = 10**9
+
+
+class TrackingWarning(UserWarning):
+    """Input the tracker accepted but changed (a scale window past the clip)."""
+
+
 @dataclass(frozen=True)
 class VelocityScale:
     """Asymmetric scaling (paper eq. 3): K_v(joint, f) = k for f0 <= f <= f1."""
@@ -109,7 +118,7 @@ class VelocityScale:
     joint: str
     k: float
     f0: int = 0
-    f1: int = 10**9
+    f1: int = 10**9   # _TO_THE_END
 
     @classmethod
     def parse(cls, text: str) -> VelocityScale:
@@ -123,7 +132,7 @@ class VelocityScale:
         except ValueError:
             raise TrackingError(f"bad scale factor in '{text}'", field="scale", subject=text) from None
         f0 = int(m.group(3)) if m.group(3) else 0
-        f1 = int(m.group(4)) if m.group(4) else 10**9
+        f1 = int(m.group(4)) if m.group(4) else _TO_THE_END
         return cls(m.group(1), k, f0, f1)
 
 
@@ -478,8 +487,15 @@ def _scale_table(rig: MocapRig, scales) -> np.ndarray:
         j = rig.clip.joint_names.index(s.joint)
         a = max(s.f0 - rig.frame0, 0)
         b = min(s.f1 - rig.frame0, rig.nframe - 1)
-        if a <= b:
-            table[a:b + 1, j] *= s.k
+        last = rig.frame0 + rig.nframe - 1
+        if a > b:
+            raise TrackingError(f"frames {s.f0}-{s.f1} are outside the simulated frames {rig.frame0}-{last}",
+                                subject=s.joint, field="scale", path=rig.clip.path)
+        if s.f1 != _TO_THE_END and (s.f1 > last or s.f0 < rig.frame0):
+            warnings.warn(f"scale {s.joint}:{s.k:g}@{s.f0}-{s.f1} reaches past the simulated frames "
+                          f"{rig.frame0}-{last}; it scales frames {a + rig.frame0}-{b + rig.frame0}",
+                          TrackingWarning, stacklevel=3)
+        table[a:b + 1, j] *= s.k
     return table
 
 
@@ -518,7 +534,13 @@ def track(rig: MocapRig, params: TrackingParams | None = None, *, scales=(), pro
     worst_sep = 0.0
     ft = rig.frame_time
     done = 0
-    t_start = time.perf_counter()
+    # Compile (or load) the stepping kernels on a scratch state before the clock starts:
+    # the real-time factor is the simulation's, not numba's first-run compile.
+    scratch = PhysicsState(model)
+    scratch.set_pose(rig.body_pos[0], rig.body_rot[0], vel[0])
+    step(model, scratch, params.dt, substeps=params.substeps, steps=1)
+    if model.njoint:
+        joint_separation(model, scratch, sep)
 
     def accumulate(f):
         RK.tracked_points_kernel(state.body_pos, state.body_rot, rig.point_local, actual)
@@ -529,6 +551,7 @@ def track(rig: MocapRig, params: TrackingParams | None = None, *, scales=(), pro
             RK.welford_update(count_all, mean_all, m2_all, one)
 
     accumulate(0)
+    t_start = time.perf_counter()
     for f in range(1, nf):
         # paper eq. 1: between frames f-1 and f, aim at the velocity of frame f
         np.multiply(vel[f], ktable[f][:, None], out=state.body_track_vel)
