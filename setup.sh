@@ -33,7 +33,22 @@ done
 .venv/bin/python -m pip install --quiet --upgrade pip
 spec="."
 [ -n "$extras" ] && spec=".[$extras]"
-.venv/bin/python -m pip install --quiet -e "$spec"
+pip_log="$(mktemp)"
+if ! .venv/bin/python -m pip install --quiet -e "$spec" 2>"$pip_log"; then
+  cat "$pip_log" >&2; rm -f "$pip_log"; exit 1
+fi
+# setuptools prints a notice block on every editable install ("Editable installation ...
+# folders with the same name as your package"); it says nothing about Menagerie. Drop
+# that block and pass on anything else pip said.
+.venv/bin/python - "$pip_log" <<'PY'
+import re
+import sys
+
+text = open(sys.argv[1], encoding="utf-8", errors="replace").read()
+text = re.sub(r"[^\n]*BuildBackendWarning: Editable installation\.\n\s*!!\n(?:.*\n)*?\s*!!\n[^\n]*\n", "", text)
+sys.stderr.write(text)
+PY
+rm -f "$pip_log"
 
 # EGL for headless rendering (pyglet's headless mode). Debian/Ubuntu package names.
 if ! ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || \

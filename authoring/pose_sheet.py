@@ -5,9 +5,9 @@ Hecker et al. 2008, section 3.4 (preview one animation on many creatures): where
 ``engine.Character`` (bind, sample, blend, standing or gait, IK, Jiggles) up to time ``t``
 and draws the poses, so what an animator sees is what the game gets::
 
-    python -m authoring.pose_sheet animations/crouch.yaml 1.0 out.png humanoid dog trex spider
+    .venv/bin/python -m authoring.pose_sheet animations/crouch.yaml 1.0 out.png humanoid dog trex spider
 
-Creatures are library names (``creatures/NAME.yaml``) or paths to creature files. Named
+Creatures are library names (``creatures/NAME.yaml``), creature files or BVH skeletons. Named
 external targets are put a little in front of each creature at chest height.
 """
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 
 import engine
 from authoring import scene as sc
@@ -25,9 +26,10 @@ FPS = 60
 
 
 def _creature(name: str):
-    path = name if name.endswith(".yaml") else os.path.join(os.path.dirname(os.path.dirname(__file__)),
-                                                            "creatures", f"{name}.yaml")
-    return engine.load_creature(path)
+    from engine.io.sources import creature_from_file
+    from engine.paths import creature_path
+
+    return creature_from_file(creature_path(name))
 
 
 def pose_sheet(animation_path: str, t: float, out: str, creatures: list[str], *, width: int = 1400,
@@ -59,13 +61,17 @@ def main(argv=None) -> int:
     ap.add_argument("creatures", nargs="+", help="library names or creature files")
     ap.add_argument("--force", action="store_true", help="overwrite an existing OUT")
     args = ap.parse_args(argv)
-    if os.path.exists(args.out) and not args.force:
-        print(f"pose_sheet: {args.out} exists (pass --force to overwrite it)")
-        return 2
+    from engine import compiling
+    from engine.outputs import output_file
+
     try:
+        output_file(args.out, args.force, flag="OUT", suffixes=(".png",))
+        if not os.path.isfile(args.animation):
+            raise engine.MenagerieError(f"{args.animation}: no such file")
+        compiling.notice("viewer")
         print(pose_sheet(args.animation, args.t, args.out, args.creatures))
-    except (engine.DataError, ValueError, OSError) as exc:
-        print(f"pose_sheet: {exc}")
+    except (engine.MenagerieError, ValueError, OSError) as exc:
+        print(f"pose_sheet: error: {exc}", file=sys.stderr)
         return 2
     return 0
 

@@ -27,22 +27,23 @@ def _parent_ready(path: str, flag: str) -> None:
 
 def output_file(path: str, force: bool, *, flag: str = "--out", suffixes: tuple[str, ...] = ()) -> str:
     """Check that ``path`` can be written as a file for ``flag``: not a folder, the right
-    suffix, not an existing file unless ``force``. Returns the path (nothing is written)."""
-    if suffixes and not path.lower().endswith(tuple(s.lower() for s in suffixes)):
-        raise MenagerieError(f"{path}: {flag} wants a {' or '.join(suffixes)} file")
+    suffix, not an existing file unless ``force``; makes its folder. Returns the path."""
     if os.path.isdir(path):
         raise MenagerieError(f"{path}: is a folder; {flag} wants a file path "
                              f"(e.g. {os.path.join(path, 'out' + (suffixes[0] if suffixes else ''))})")
+    if suffixes and not path.lower().endswith(tuple(s.lower() for s in suffixes)):
+        raise MenagerieError(f"{path}: {flag} wants a {' or '.join(suffixes)} file")
     if os.path.exists(path) and not force:
         raise MenagerieError(f"{path} exists; pass --force to replace it")
     _parent_ready(path, flag)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     return path
 
 
 def output_dir(path: str, force: bool, *, flag: str = "--out", writes: tuple[str, ...] = ()) -> str:
     """Check that ``path`` can be the folder ``flag`` writes into: not a file; when it
     already holds any of the file names (or glob patterns) in ``writes``, only with
-    ``force``. Returns the path (nothing is made)."""
+    ``force``; makes it. Returns the path."""
     import glob
 
     if os.path.exists(path) and not os.path.isdir(path):
@@ -53,4 +54,5 @@ def output_dir(path: str, force: bool, *, flag: str = "--out", writes: tuple[str
             raise MenagerieError(f"{os.path.join(path, taken[0])} exists; pass --force to replace "
                                  f"the output in {path}")
     _parent_ready(os.path.join(path, "x"), flag)
+    os.makedirs(path, exist_ok=True)
     return path

@@ -48,6 +48,11 @@ class PlayHandle:
     def playing(self) -> bool:
         return self.slot >= 0
 
+    def __repr__(self) -> str:
+        state = "playing" if self.playing else ("finished" if self.finished else "queued")
+        name = getattr(self.animation, "name", type(self.animation).__name__)
+        return f"<PlayHandle {name!r} layer {self.layer} {state}>"
+
 
 @dataclass
 class _Queued:
@@ -158,7 +163,8 @@ class Player:
               fade_out: float | None = None, loop: bool | None = None, speed: float = 1.0,
               layer: int = 0, on_event: EventCallback | None = None) -> PlayHandle:
         """Play ``animation`` on ``layer`` when what plays there now ends (at once if
-        nothing plays); it fades in over ``fade`` while the ending clip fades out."""
+        nothing plays); it fades in over ``fade`` while the ending clip fades out. Behind
+        a looping clip it starts at the end of the loop's current cycle."""
         self._check(weight, fade, fade_out, speed, layer)
         handle = PlayHandle(animation, payload, layer, -1, self._next_serial(), on_event)
         q = _Queued(handle, weight, fade, fade if fade_out is None else fade_out,
@@ -232,6 +238,12 @@ class Player:
                                   float(a.speed[0, s]), float(a.length[0, s]))
             if flags & FLAG_ENDING and self.queues[h.layer]:
                 self._start_queued(self.queues[h.layer].popleft())
+            elif flags & FLAG_WRAPPED and self.queues[h.layer] and not a.stopping[0, s]:
+                # A looping clip never ends: what is queued behind it takes over at the
+                # end of its current cycle, cross-fading over the queued clip's fades.
+                q = self.queues[h.layer].popleft()
+                self._stop_slot(s, q.fade_out)
+                self._start_queued(q)
             if flags & FLAG_FREED:
                 h.slot = -1
                 h.finished = True

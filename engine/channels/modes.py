@@ -78,6 +78,11 @@ SAGITTAL_MIN = 0.01
 MIN_GROUND_AXIS = 1e-9
 
 
+#: Words written as a position mode that are flags beside it (the file's field names).
+_FLAG_MODES = {"ground": "ground", "sagittal": "sagittal", "directional_only": "directional_only",
+               "directional": "directional_only"}
+
+
 @dataclass(frozen=True)
 class PositionSpec:
     """How a channel's position curve is interpreted (see the module docstring)."""
@@ -90,7 +95,10 @@ class PositionSpec:
 
     def __post_init__(self) -> None:
         if self.mode not in POSITION_MODES:
-            raise DataError(f"unknown position mode {self.mode!r} (known: {', '.join(POSITION_MODES)})",
+            hint = ""
+            if self.mode in _FLAG_MODES:
+                hint = f"; {self.mode} is a flag beside the mode: {{mode: rest, {_FLAG_MODES[self.mode]}: true}}"
+            raise DataError(f"unknown position mode {self.mode!r} (known: {', '.join(POSITION_MODES)}){hint}",
                             field="mode")
         if self.scale not in SCALE_MODES:
             raise DataError(f"unknown scale mode {self.scale!r} (known: {', '.join(SCALE_MODES)})",
