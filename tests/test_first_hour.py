@@ -23,19 +23,20 @@ import engine
 from engine.paths import REPO_ROOT, has_shared_data, shared_data, shared_dir
 
 ROOT = str(REPO_ROOT)
-BIN = os.path.dirname(sys.executable)
-MENAGERIE = os.path.join(BIN, "menagerie")
 WALK = str(shared_data("mocap", "cmu_02_01_walk.bvh")) if has_shared_data() else ""
 needs_walk = pytest.mark.skipif(not os.path.exists(WALK), reason="shared data (../shared/data) not here")
 
 
 def cli(*args, cwd=None, env=None, quiet=True, timeout=600):
-    """Run ``menagerie ARGS``; returns (status, stdout, stderr)."""
+    """Run ``menagerie ARGS`` (as ``python -m authoring.cli``); returns (status, stdout, stderr)."""
     e = dict(os.environ, MENAGERIE_HEADLESS="1")
     if quiet:
         e["MENAGERIE_QUIET"] = "1"
     e.update(env or {})
-    cmd = [MENAGERIE] if os.path.exists(MENAGERIE) else [sys.executable, "-m", "authoring.cli"]
+    # The code of the repository these tests are in (what ``menagerie`` runs when it is
+    # installed from here), wherever the command runs.
+    e["PYTHONPATH"] = ROOT + os.pathsep + e.get("PYTHONPATH", "")
+    cmd = [sys.executable, "-m", "authoring.cli"]
     p = subprocess.run([*cmd, *map(str, args)], cwd=cwd or ROOT, env=e, capture_output=True, text=True,
                        timeout=timeout)
     return p.returncode, p.stdout, p.stderr

@@ -39,4 +39,4 @@ def test_cli_does_not_overwrite_without_force(tmp_path, capsys):
     out.write_bytes(b"the user's file")
     assert ps.main(["animations/crouch.yaml", "0.5", str(out), "dog"]) == 2
     assert out.read_bytes() == b"the user's file"
-    assert "--force" in capsys.readouterr().out
+    assert "--force" in capsys.readouterr().err   # errors go to stderr, one line

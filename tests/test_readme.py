@@ -169,7 +169,9 @@ def _small(cmd: str, tmp: str) -> tuple[list[str] | None, bool]:
     if sub == "mocap":
         if walk not in rest or not has_shared_data():
             return None, False
-        rest += ["--frames", "0-40", "--force"]
+        # 40 frames, or enough to reach into the command's --scale windows.
+        starts = [int(m) for m in re.findall(r"@(\d+)-", " ".join(rest))]
+        rest += ["--frames", f"0-{max([40] + [f + 20 for f in starts])}", "--force"]
         if rest[0] == "tune":
             rest += ["--points", "2"]
         return [*a[:2], *rest], False
