@@ -321,6 +321,15 @@ def test_view_takes_library_names(tmp_path):
     one_error(*cli("view", "nosuchbeast", "--snapshot", tmp_path / "n.png"), "nosuchbeast", "library")
 
 
+def test_the_grid_takes_library_names_too():
+    from engine.validation.grid import file_sources
+
+    assert [os.path.basename(s.ref) for s in file_sources(["humanoid", "creatures/dog.yaml"])] == [
+        "humanoid.yaml", "dog.yaml"]
+    with pytest.raises(engine.MenagerieError, match="no library creature 'nosuchbeast'"):
+        file_sources(["nosuchbeast"])
+
+
 # -- 8. files where the user expects them --------------------------------------------------
 
 

@@ -81,8 +81,9 @@ def random_sources(count: int, first_seed: int = 0) -> list[Source]:
 
 
 def file_sources(paths) -> list[Source]:
-    """Creature sources from files and directories (every creature file or skeleton in a
-    directory, sorted); raises naming a path that does not exist or holds none."""
+    """Creature sources from files, directories (every creature file or skeleton in a
+    directory, sorted) and library names; raises naming a path that does not exist or
+    holds none."""
     from engine.errors import MenagerieError
     from engine.io.sources import is_creature_source
 
@@ -101,6 +102,10 @@ def file_sources(paths) -> list[Source]:
                 kinds = ", ".join(sorted(CREATURE_SUFFIXES))
                 raise MenagerieError(f"{p}: not a creature source (known kinds: {kinds})")
             out.append(Source("file", p))
+        elif not os.path.splitext(p)[1] and os.sep not in p:
+            from engine.paths import creature_path
+
+            out.append(Source("file", creature_path(p)))   # a library name (humanoid)
         else:
             raise MenagerieError(f"{p}: no such file or directory")
     return out
@@ -126,6 +131,10 @@ def animation_paths(paths) -> list[str]:
             out += found
         elif os.path.isfile(p):
             out.append(p)
+        elif not os.path.splitext(p)[1] and os.sep not in p:
+            from engine.paths import creature_path
+
+            out.append(Source("file", creature_path(p)))   # a library name (humanoid)
         else:
             raise MenagerieError(f"{p}: no such file or directory")
     return out
