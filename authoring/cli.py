@@ -31,10 +31,12 @@ def cmd_view(args: argparse.Namespace) -> int:
     from authoring import render as rd
     from authoring.viewer import _free_path, view_file
     from engine import compiling
+    from engine.io.sources import creature_from_file
     from engine.outputs import output_file
     from engine.paths import creature_path
 
     path = creature_path(args.file)
+    creature_from_file(path)   # a bad file fails here, before anything is said or made
     snapshot, fallback = args.snapshot, False
     if snapshot is not None:
         output_file(snapshot, args.force, flag="--snapshot", suffixes=(".png",))
@@ -43,7 +45,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         name = os.path.splitext(os.path.basename(path))[0]
         snapshot, fallback = _free_path(os.path.join("out", f"{name}.png")), True
         os.makedirs("out", exist_ok=True)
-    compiling.notice("viewer")
+    compiling.notice("view")
     out = view_file(path, snapshot=snapshot)
     if fallback:
         print(f"menagerie view: no display here (DISPLAY is not set): wrote {out} "

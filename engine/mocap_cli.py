@@ -103,15 +103,13 @@ def _meaning(params) -> str:
 
 def cmd_mocap_simulate(args: argparse.Namespace) -> int:
     """Simulate one capture, print the error summary, write the BVH and the report."""
-    from engine import compiling
     from engine.io import save_bvh
     from engine.response.tracking import VelocityScale, track
 
     _check_outputs(args)
     scales = [VelocityScale.parse(s) for s in (args.scale or ())]
     rig, params = _rig_and_params(args)
-    compiling.notice("physics")
-    result = track(rig, params, scales=scales)
+    result = track(rig, params, scales=scales)   # says once when its kernels compile
     report = result.report()
     print(f"{os.path.basename(args.file)}  mode {rig.mode}  frames {rig.nframe}  bodies {rig.model.nbody}")
     print(f"  mean squared error {result.mse:.6f} m^2   variance {result.var:.6g} m^4   "
@@ -133,12 +131,10 @@ def cmd_mocap_simulate(args: argparse.Namespace) -> int:
 
 def cmd_mocap_tune(args: argparse.Namespace) -> int:
     """The paper's Monte Carlo search of (order, K_f, K_vc) on one capture."""
-    from engine import compiling
     from engine.response.tracking import tune
 
     _check_outputs(args)
     rig, params = _rig_and_params(args)
-    compiling.notice("physics")
 
     def progress(i, n, p, mse, best):
         print(f"  point {i + 1}/{args.points} order {n:2d}  K_f {p.k_f:8.3f}  K_vc {p.k_vc:6.4f}  "

@@ -147,6 +147,16 @@ def test_a_warm_cache_says_nothing(tmp_path, monkeypatch):
     assert compiling.notice("runtime") is False
 
 
+def test_a_second_run_says_nothing_about_compiling(tmp_path):
+    """What one run compiled, the next loads: no line (no file the command never calls
+    may keep the area looking cold)."""
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    status, out, first = cli("view", "humanoid", "--snapshot", tmp_path / "a.png", quiet=False, env=env)
+    assert status == 0 and "compiling the viewer's numba kernels" in first, first
+    status, out, second = cli("view", "humanoid", "--snapshot", tmp_path / "b.png", quiet=False, env=env)
+    assert status == 0 and "compiling" not in second, second
+
+
 @needs_walk
 def test_the_real_time_factor_leaves_the_first_call_out(monkeypatch):
     """A first step that costs a second (what numba's compile does) is not simulation time."""

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from engine import compiling
 from engine.errors import DataError
 from engine.io.bvh import BvhClip, auto_scale, quat_mul, quat_rotate, quat_to_menagerie_axes, to_menagerie_axes
 from engine.physics import BodySpec, PhysicsState, Terrain, WorldSettings, build_model, step
@@ -534,6 +535,7 @@ def track(rig: MocapRig, params: TrackingParams | None = None, *, scales=(), pro
     worst_sep = 0.0
     ft = rig.frame_time
     done = 0
+    compiling.notice("physics")   # once per process, when numba's cache is cold
     # Compile (or load) the stepping kernels on a scratch state before the clock starts:
     # the real-time factor is the simulation's, not numba's first-run compile.
     scratch = PhysicsState(model)
