@@ -254,3 +254,44 @@ def test_a_warm_tick_allocates_nothing_that_grows_with_the_creature(human, clips
     assert kept_small <= 512 and kept_big <= 512, figures
     assert peak_big <= peak_small + 256, figures      # 40 more bodies: one (40, 3) array is 1 kB
     assert peak_small <= 16 * 1024, figures
+def test_a_layer_at_half_weight_moves_the_hand_about_half_way(human, clips):
+    """What a game sets as a weight is what it sees: a layer at weight w over one that does
+    not pose the hand moves it roughly w of the way (a fade is then as long as it says)."""
+    def hand_at(weight):
+        ch = Character(human)
+        ch.play(clips["idle_breathe"], layer=0, fade=0.0)
+        ch.play(clips["wave"], layer=1, fade=0.0)
+        ch.set_layer_weight(1, weight)
+        run(ch, 0.8)
+        return ch.world_positions[human.body("hand_l")].copy()
+    p0, p1 = hand_at(0.0), hand_at(1.0)
+    for w in (0.1, 0.25, 0.5, 0.75):
+        f = np.linalg.norm(hand_at(w) - p0) / np.linalg.norm(p1 - p0)
+        assert abs(f - w) < 0.2, (w, f)
+
+
+@pytest.mark.parametrize("name", ["humanoid", "threearmed", "octopus"])
+def test_fades_ease_in_and_out_without_a_step(name, clips):
+    """A clip faded in over 0.3 s and stopped over 0.3 s moves every body along an eased
+    path: its fastest frames are mid-fade, never at the fade's first or last frames (a goal
+    whose weight is nearly 0 once moved a humanoid's hand 21 cm in the first frame of a
+    fade and 19 cm in the last)."""
+    c = engine.load_creature(f"creatures/{name}.yaml")
+    ch = Character(c)
+    run(ch, 0.2)
+    def steps(frames):
+        out = []
+        for _ in range(frames):
+            before = ch.world_positions.copy()
+            ch.tick(DT)
+            out.append(np.linalg.norm(ch.world_positions - before, axis=1).max())
+        return np.array(out)
+    ch.play(clips["wave"], fade=0.3)
+    fade_in = steps(18)
+    run(ch, 0.5)
+    ch.stop(fade=0.3)
+    fade_out = steps(18)
+    for what, s in (("fade in", fade_in), ("fade out", fade_out)):
+        assert s.max() > 0.01 * c.height, what                    # something moves
+        edge = max(s[:2].max(), s[-2:].max())
+        assert edge < 0.6 * s.max(), (what, np.round(s / c.height, 4))
