@@ -7,6 +7,8 @@ module also runs alone (``python -m engine.cli ...``) on machines without the vi
     menagerie creatures list [DIR]               counts per creature
     menagerie creatures generate --seed S --count N --out DIR [--force]
     menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
+    menagerie creatures from-gltf FILE.glb --out FILE.yaml [--skin N] [--caps TABLE.yaml] [--scale K] [--force]
+    menagerie creatures explain FILE             what an imported skeleton's bodies are, and why
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
 Errors a user can cause (bad files, missing paths) print one line naming the fault and
@@ -84,6 +86,54 @@ def cmd_creatures_from_bvh(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_creatures_from_gltf(args: argparse.Namespace) -> int:
+    from engine.io.bvh_creature import load_caps_table
+    from engine.io.gltf import import_gltf
+    from engine.model import build_creature, write_creature_def
+
+    table = load_caps_table(args.caps) if args.caps else None
+    imp = import_gltf(args.file, skin=args.skin, caps_table=table, scale=args.scale)
+    creature = build_creature(imp.cdef)
+    try:
+        write_creature_def(imp.cdef, args.out, overwrite=args.force)
+    except FileExistsError as exc:
+        raise MenagerieError(str(exc)) from None
+    for note in imp.notes:
+        print(f"note: {note}")
+    if imp.helpers:
+        print(f"left out {len(imp.helpers)} helper bones that deform nothing: {', '.join(imp.helpers)}")
+    if imp.reattached:
+        print(f"re-attached {len(imp.reattached)} detached chains: {', '.join(imp.reattached)}")
+    print(f"wrote {args.out}: {creature!r}")
+    return 0
+
+
+def cmd_creatures_explain(args: argparse.Namespace) -> int:
+    from engine.io.bvh_creature import load_caps_table
+    from engine.io.sources import explain_creature_source
+
+    table = load_caps_table(args.caps) if args.caps else None
+    print(explain_creature_source(args.file, caps_table=table))
+    return 0
+
+
+def add_gltf_commands(csub) -> None:
+    """``creatures from-gltf`` and ``creatures explain`` (kept apart for easy merging)."""
+    gl = csub.add_parser("from-gltf", help="turn a glTF rig (.glb/.gltf) into a creature file")
+    gl.add_argument("file")
+    gl.add_argument("--out", required=True, help="creature file to write")
+    gl.add_argument("--skin", type=int, default=None, help="skin index (default: the one with most joints)")
+    gl.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
+    gl.add_argument("--scale", type=float, default=None,
+                    help="multiply positions (default: 1, or 0.01 for a rig left in centimetres)")
+    gl.add_argument("--force", action="store_true", help="overwrite an existing file")
+    gl.set_defaults(func=cmd_creatures_from_gltf)
+    ex = csub.add_parser("explain", help="what an imported skeleton's bodies are, and why")
+    ex.add_argument("file", help="a .bvh, .glb or .gltf file")
+    ex.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
+    ex.set_defaults(func=cmd_creatures_explain)
+
+
 # -- entry point -------------------------------------------------------------------------
 
 
@@ -107,6 +157,7 @@ def add_batch_commands(sub) -> None:
     bvh.add_argument("--scale", type=float, default=None, help="file units to metres (default: auto)")
     bvh.add_argument("--force", action="store_true", help="overwrite an existing file")
     bvh.set_defaults(func=cmd_creatures_from_bvh)
+    add_gltf_commands(csub)
 
     try:
         from engine.mocap_cli import add_mocap_parser
