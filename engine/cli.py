@@ -104,6 +104,8 @@ def cmd_creatures_from_gltf(args: argparse.Namespace) -> int:
         print(f"left out {len(imp.helpers)} helper bones that deform nothing: {', '.join(imp.helpers)}")
     if imp.reattached:
         print(f"re-attached {len(imp.reattached)} detached chains: {', '.join(imp.reattached)}")
+    if imp.relaxed:
+        print(f"relaxed rest: arms swung down ({', '.join(imp.relaxed)})")
     print(f"wrote {args.out}: {creature!r}")
     return 0
 

@@ -250,3 +250,54 @@ def test_builder_errors_come_back_as_gltf_errors():
     path = os.path.join(RIGS, "riggedfigure_khronos.glb")
     with pytest.raises((GltfError, CreatureError), match="riggedfigure_khronos.glb"):
         import_gltf(path, caps_table={"arm_joint_._1": ["spine"]})
+
+
+# -- the relaxed rest pose -----------------------------------------------------------------
+
+
+def _arm_drop(cdef, shoulder, hand):
+    body = {b.name: b for b in cdef.bodies}
+    return np.array(body[hand].joint) - np.array(body[shoulder].joint)
+
+
+def test_t_pose_arms_hang_down_in_the_relaxed_rest():
+    path = os.path.join(RIGS, "godot_mannequiny.glb")
+    tpose = import_gltf(path, rest="file")
+    relaxed = import_gltf(path)
+    d0 = _arm_drop(tpose.cdef, "upperarm.l", "hand.l")
+    d1 = _arm_drop(relaxed.cdef, "upperarm.l", "hand.l")
+    assert abs(d0[2]) < 0.3 * np.linalg.norm(d0)          # out at the side in the file
+    assert d1[2] < -0.95 * np.linalg.norm(d1) and d1[1] > 0  # hanging, a little outward (left)
+    assert np.linalg.norm(d1) == pytest.approx(np.linalg.norm(d0), rel=1e-9)  # the arm keeps its length
+    assert len(relaxed.relaxed) == 2
+    # Bodies off the arms do not move; the feet are where they were.
+    b0 = {b.name: b for b in tpose.cdef.bodies}
+    for b in relaxed.cdef.bodies:
+        if b.name in ("foot.l", "head", "pelvis", "clavicle.l"):
+            np.testing.assert_allclose(b.pos, b0[b.name].pos, atol=1e-12)
+    # rest_delta undoes it: the file's box rotations come back.
+    from engine.model.rest_pose import _qmul
+
+    k = [b.name for b in relaxed.cdef.bodies].index("lowerarm.l")
+    dq = relaxed.rest_delta[k] * np.array([1, -1, -1, -1])
+    back = _qmul(dq, np.array(relaxed.cdef.bodies[k].rot))
+    assert abs(abs(np.dot(back, tpose.cdef.bodies[k].rot)) - 1) < 1e-9
+
+
+def test_capture_arms_hang_and_arms_already_down_stay():
+    from engine.io.bvh_creature import creature_def_from_bvh
+
+    cdef = creature_def_from_bvh(os.path.join(MOCAP, "cmu_02_01_walk.bvh"))
+    d = _arm_drop(cdef, "LeftArm", "LeftHand")
+    assert d[2] < -0.95 * np.linalg.norm(d)
+    # The library humanoid's arms already hang: nothing to do.
+    from engine.model import load_creature
+    from engine.model.rest_pose import relax_arms
+
+    h = load_creature(os.path.join(HERE, "..", "creatures", "humanoid.yaml"))
+    caps = [[c for c in ("spine", "grasper") if h.body_caps[i] & {"spine": 1, "grasper": 4}[c]]
+            for i in range(h.nbody)]
+    cdef_h = h.to_def()
+    _, _, _, _, turned = relax_arms(h.body_parent, caps, [b.joint for b in cdef_h.bodies],
+                                    [b.pos for b in cdef_h.bodies], [b.rot for b in cdef_h.bodies])
+    assert turned == []

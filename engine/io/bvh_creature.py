@@ -369,7 +369,7 @@ def _rest_boxes(clip: BvhClip, scale: float):
 
 def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
                           scale: float | None = None, name: str | None = None,
-                          caps_from: str = "shape") -> CreatureDef:
+                          caps_from: str = "shape", rest: str = "relaxed") -> CreatureDef:
     """A ``CreatureDef`` for a BVH skeleton (a ``BvhClip`` or a file path).
 
     Args:
@@ -379,14 +379,18 @@ def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table:
         name: the creature's name; default the file's stem (or ``bvh_creature``).
         caps_from: ``"shape"`` (``engine.model.shape_caps``: the rest pose first, names as a
             hint, a user's ``caps_table`` last) or ``"names"`` (the name table alone).
+        rest: ``"relaxed"`` swings T-pose arms down (``engine.model.rest_pose``) so
+            rest-relative channels act as on the library humanoid; ``"file"`` keeps the
+            OFFSET pose.
 
     The definition is validated by building it once, so a caps table that breaks the spine
     chain fails here with ``CreatureError`` naming the BVH file and the joint's line.
     """
-    return creature_def_from_bvh_explained(clip_or_path, caps_table, scale, name, caps_from)[0]
+    return creature_def_from_bvh_explained(clip_or_path, caps_table, scale, name, caps_from, rest)[0]
 
 
-def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, name=None, caps_from="shape"):
+def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, name=None, caps_from="shape",
+                                    rest="relaxed"):
     """``creature_def_from_bvh`` and the reason for each body's capabilities."""
     from engine.model.shape_caps import find_caps
 
@@ -402,6 +406,14 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
     tip = to_menagerie_axes(end_file, scale) + shift
     caps, reasons = find_caps(clip.joint_names, clip.joint_parent, joint_pos, centre, rot, half,
                               caps_table=caps_table, mode=caps_from, tip=tip)
+    if rest == "relaxed":
+        from engine.model.rest_pose import relax_arms
+
+        joint_pos, centre, rot, _, turned = relax_arms(clip.joint_parent, caps, joint_pos, centre, rot)
+        for g, s, ang in turned:
+            reasons[g] += f"; arm swung down at {clip.joint_names[s]} ({ang:.0f} deg from hanging)"
+    elif rest != "file":
+        raise DataError(f"rest must be 'relaxed' or 'file', got {rest!r}", path=clip.path, field="rest")
 
     if name is None:
         name = os.path.splitext(os.path.basename(clip.path))[0] if clip.path else "bvh_creature"
@@ -426,9 +438,10 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
 
 
 def creature_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
-                      scale: float | None = None, name: str | None = None) -> Creature:
+                      scale: float | None = None, name: str | None = None, rest: str = "relaxed") -> Creature:
     """The built ``Creature`` for a BVH skeleton; arguments as ``creature_def_from_bvh``."""
-    return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name))
+    return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name,
+                                                rest=rest))
 
 
 def bvh_body_poses(clip: BvhClip, scale: float | None = None, frames=None) -> tuple[np.ndarray, np.ndarray]:

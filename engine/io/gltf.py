@@ -26,6 +26,8 @@ How each piece is made (Menagerie axes and metres, see ``ecosystem.md`` section 
   ``MIN_BOX_VERTICES`` vertices gets a box along its bone as the BVH importer makes.
 * **Capabilities** come from the shape first, names as a hint
   (``engine.model.shape_caps``); ``caps_table`` adds the user's name patterns.
+* **Rest pose**: T- and A-pose arms are swung down (``engine.model.rest_pose``); the
+  file's bind pose is kept in ``GltfImport.rest_delta`` (``rest="file"`` keeps it as is).
 * **Placement.** The creature stands on the ground (lowest box corner at z = 0) with the
   root joint above the origin; ``scale`` multiplies everything after the hierarchy.
 
@@ -352,6 +354,9 @@ class GltfImport:
             before grounding (``shift`` moves it onto the ground).
         shift: the grounding translation added to every position.
         scale: the scale applied after the hierarchy.
+        rest_delta: world rotation (w, x, y, z) the relaxed rest applied to each body
+            (identity for bodies it did not move); the file's bind pose is this undone.
+        relaxed: the arms swung down, one line each.
     """
 
     cdef: CreatureDef
@@ -365,6 +370,8 @@ class GltfImport:
     joint_world: np.ndarray | None = None
     shift: np.ndarray | None = None
     scale: float = 1.0
+    rest_delta: np.ndarray | None = None
+    relaxed: list[str] = field(default_factory=list)
 
 
 def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], notes: list[str]):
@@ -508,7 +515,8 @@ def _fit_boxes(parent, joint_pos, vert_pos, vert_body, size):
 
 
 def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
-                scale: float | None = None, name: str | None = None, caps_from: str = "shape") -> GltfImport:
+                scale: float | None = None, name: str | None = None, caps_from: str = "shape",
+                rest: str = "relaxed") -> GltfImport:
     """Read a rig and make its creature definition (see the module docstring).
 
     Args:
@@ -518,6 +526,8 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
         name: the creature's name (default: the file's stem).
         caps_from: ``"shape"`` (geometry first, names as a hint) or ``"names"`` (the name
             table alone, as the BVH importer used to).
+        rest: ``"relaxed"`` (arms of a T- or A-pose hang down, ``engine.model.rest_pose``)
+            or ``"file"`` (the file's bind pose as it is).
     """
     from engine.model.builder import build_creature
     from engine.model.shape_caps import find_caps
@@ -698,6 +708,15 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
 
     caps, reasons = find_caps(names, bparent, joint_pos, centre, rotq, half, caps_table=caps_table,
                               mode=caps_from, tip=tip)
+    rest_delta = np.tile([1.0, 0.0, 0.0, 0.0], (len(names), 1))
+    relaxed = []
+    if rest == "relaxed":
+        from engine.model.rest_pose import relax_arms
+
+        joint_pos, centre, rotq, rest_delta, turned = relax_arms(bparent, caps, joint_pos, centre, rotq)
+        relaxed = [f"{names[g]} (turned at {names[sh]}, {ang:.0f} deg from hanging)" for g, sh, ang in turned]
+    elif rest != "file":
+        raise GltfError(f"rest must be 'relaxed' or 'file', got {rest!r}", path=path, field="rest")
     if name is None:
         name = os.path.splitext(os.path.basename(path))[0]
     bodies = []
@@ -721,18 +740,19 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
     return GltfImport(cdef=cdef, skin=skin, body_node=body_node, helpers=helpers, reattached=reattached,
                       notes=notes,
                       skipped=sorted(doc.nodes[i].name or f"node{i}" for i in skipped), reasons=reasons,
-                      joint_world=jw, shift=shift, scale=scale)
+                      joint_world=jw, shift=shift, scale=scale, rest_delta=rest_delta, relaxed=relaxed)
 
 
 def creature_def_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
-                           scale: float | None = None, name: str | None = None) -> CreatureDef:
+                           scale: float | None = None, name: str | None = None, rest: str = "relaxed") -> CreatureDef:
     """A ``CreatureDef`` for the rig in ``path``; arguments as ``import_gltf``."""
-    return import_gltf(path, skin=skin, caps_table=caps_table, scale=scale, name=name).cdef
+    return import_gltf(path, skin=skin, caps_table=caps_table, scale=scale, name=name, rest=rest).cdef
 
 
 def creature_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
-                       scale: float | None = None, name: str | None = None):
+                       scale: float | None = None, name: str | None = None, rest: str = "relaxed"):
     """The built ``Creature`` for the rig in ``path``; arguments as ``import_gltf``."""
     from engine.model.builder import build_creature
 
-    return build_creature(creature_def_from_gltf(path, skin=skin, caps_table=caps_table, scale=scale, name=name))
+    return build_creature(creature_def_from_gltf(path, skin=skin, caps_table=caps_table, scale=scale, name=name,
+                                                 rest=rest))

@@ -62,6 +62,8 @@ def explain_creature_source(path: str | os.PathLike, caps_table: dict | None = N
             extra.append(f"helper bones left out (deform nothing): {', '.join(imp.helpers)}")
         if imp.reattached:
             extra.append(f"detached chains re-attached: {', '.join(imp.reattached)}")
+        if imp.relaxed:
+            extra.append(f"arms swung down to a relaxed rest: {', '.join(imp.relaxed)}")
     elif suffix == ".bvh":
         from engine.io.bvh_creature import creature_def_from_bvh_explained
 
