@@ -24,6 +24,8 @@ How each piece is made (Menagerie axes and metres, see ``ecosystem.md`` section 
   the mean of its child joints; a leaf along its vertices' principal axis away from the
   joint), so leaf bones (heads, hands, tail tips) get boxes too. A body with fewer than
   ``MIN_BOX_VERTICES`` vertices gets a box along its bone as the BVH importer makes.
+* **Our own exports** (every joint node carries ``extras.menagerie``) come back exactly:
+  the bodies' names, boxes and capabilities are read from the extras, nothing is moved.
 * **Capabilities** come from the shape first, names as a hint
   (``engine.model.shape_caps``); ``caps_table`` adds the user's name patterns.
 * **Rest pose**: T- and A-pose arms are swung down (``engine.model.rest_pose``); the
@@ -437,6 +439,18 @@ def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: 
     return (np.concatenate(all_pos), np.concatenate([p[0] for p in pad]), np.concatenate([p[1] for p in pad]))
 
 
+def _menagerie_extras(doc, body_node: list[int]) -> list[dict] | None:
+    """Each body node's ``extras.menagerie`` when every one has it (a Menagerie export)."""
+    out = []
+    for j in body_node:
+        extras = doc.nodes[j].extras if j >= 0 else None
+        m = extras.get("menagerie") if isinstance(extras, dict) else None
+        if not (isinstance(m, dict) and {"caps", "box_offset", "extents"} <= set(m)):
+            return None
+        out.append(m)
+    return out
+
+
 def _is_below(k: int, r: int, parent: list[int]) -> bool:
     """Whether slot ``k`` is ``r`` or below it in the ``parent`` list."""
     while k >= 0:
@@ -695,19 +709,31 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
     size = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 1.0
     if size <= 0:
         size = 1.0
-    centre, rotm, half = _fit_boxes(bparent, joint_pos, vert, vert_body, size)
-    rotq = np.array([matrix_to_quat(r) for r in rotm])
+    own = _menagerie_extras(doc, body_node)
+    if own is not None:
+        # Our own export: bodies, boxes and capabilities as they were written, in place.
+        rotq = np.array([matrix_to_quat(m[:3, :3]) for m in jw])
+        centre = np.array([joint_pos[b] + quat_to_matrix(rotq[b]) @ np.asarray(e["box_offset"], float)
+                           for b, e in enumerate(own)])
+        half = np.array([e["extents"] for e in own], float)
+        names = [str(e.get("body", nm)) for e, nm in zip(own, names, strict=True)]
+        caps = [list(e["caps"]) for e in own]
+        reasons = ["from the Menagerie export's extras"] * len(names)
+        shift = np.zeros(3)
+    else:
+        centre, rotm, half = _fit_boxes(bparent, joint_pos, vert, vert_body, size)
+        rotq = np.array([matrix_to_quat(r) for r in rotm])
 
-    # Stand on the ground, root above the origin.
-    from engine.io.bvh_creature import _box_min_z
+        # Stand on the ground, root above the origin.
+        from engine.io.bvh_creature import _box_min_z
 
-    shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rotq, half)])
-    joint_pos = joint_pos + shift
-    centre = centre + shift
-    tip = tip + shift
+        shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rotq, half)])
+        joint_pos = joint_pos + shift
+        centre = centre + shift
+        tip = tip + shift
 
-    caps, reasons = find_caps(names, bparent, joint_pos, centre, rotq, half, caps_table=caps_table,
-                              mode=caps_from, tip=tip)
+        caps, reasons = find_caps(names, bparent, joint_pos, centre, rotq, half, caps_table=caps_table,
+                                  mode=caps_from, tip=tip)
     rest_delta = np.tile([1.0, 0.0, 0.0, 0.0], (len(names), 1))
     relaxed = []
     if rest == "relaxed":
