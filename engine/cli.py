@@ -9,6 +9,8 @@ module also runs alone (``python -m engine.cli ...``) on machines without the vi
     menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
     menagerie creatures from-gltf FILE.glb --out FILE.yaml [--skin N] [--caps TABLE.yaml] [--scale K] [--force]
     menagerie creatures explain FILE             what an imported skeleton's bodies are, and why
+    menagerie bake ANIM.yaml CREATURE... --out DIR [--format glb|gltf|bvh] [--variant V] [--fps 30]
+                                                 the runtime's output as animated glTF or BVH files
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
 Errors a user can cause (bad files, missing paths) print one line naming the fault and
@@ -136,6 +138,40 @@ def add_gltf_commands(csub) -> None:
     ex.set_defaults(func=cmd_creatures_explain)
 
 
+def cmd_bake(args: argparse.Namespace) -> int:
+    from engine.io.bake import bake
+    from engine.validation.grid import file_sources
+
+    sources = [s.ref for s in file_sources(args.creatures)]
+    results = bake(sources, args.animation, args.out, fmt=args.format, fps=args.fps, variant=args.variant,
+                   overwrite=args.force, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    failed = [r for r in results if r.error]
+    for r in results:
+        if r.error:
+            print(f"{r.source}: {r.error.splitlines()[0]}", file=sys.stderr)
+        elif not args.quiet:
+            print(f"wrote {', '.join(r.paths)} ({r.clips} clip{'s' if r.clips != 1 else ''}, {r.seconds:.2f} s)")
+    print(f"baked {len(results) - len(failed)} of {len(results)} creatures into {args.out}")
+    return 2 if failed else 0
+
+
+def add_bake_command(sub) -> None:
+    """``bake`` (kept apart for easy merging)."""
+    bk = sub.add_parser("bake", help="write what the runtime plays as animated glTF or BVH, per creature")
+    bk.add_argument("animation", help="animation file")
+    bk.add_argument("creatures", nargs="+", help="creature files, skeletons (BVH, glTF) or directories")
+    bk.add_argument("--out", required=True, help="output directory")
+    bk.add_argument("--format", default="glb", choices=["glb", "gltf", "bvh"])
+    bk.add_argument("--variant", default=None, help="only this variant id (default: every variant, one clip each)")
+    bk.add_argument("--fps", type=float, default=30.0, help="keys per second (default 30)")
+    bk.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
+    bk.add_argument("--workers", type=int, default=None,
+                    help="LocalCluster worker processes (default: one per core; 0 runs in this process)")
+    bk.add_argument("--force", action="store_true", help="overwrite existing files")
+    bk.add_argument("--quiet", action="store_true", help="no progress bar, only failures and the total")
+    bk.set_defaults(func=cmd_bake)
+
+
 # -- entry point -------------------------------------------------------------------------
 
 
@@ -160,6 +196,7 @@ def add_batch_commands(sub) -> None:
     bvh.add_argument("--force", action="store_true", help="overwrite an existing file")
     bvh.set_defaults(func=cmd_creatures_from_bvh)
     add_gltf_commands(csub)
+    add_bake_command(sub)
 
     try:
         from engine.mocap_cli import add_mocap_parser

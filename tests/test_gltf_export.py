@@ -128,3 +128,59 @@ def test_refuses_to_overwrite(tmp_path):
     with pytest.raises(FileExistsError):
         save_gltf(c, [], path)
     save_gltf(c, [], path, overwrite=True)
+
+
+def test_bvh_export_plays_back_our_motion(tmp_path):
+    from engine.io.bake import recording_to_bvh
+    from engine.io.bvh import load_bvh, save_bvh, to_menagerie_axes
+
+    c = _creature("humanoid")
+    rec = record_clip(c, _anim("wave"), fps=30, seconds=1.0)
+    path = tmp_path / "wave.bvh"
+    save_bvh(recording_to_bvh(c, rec), path)
+    clip = load_bvh(path)
+    assert clip.joint_names == tuple(safe_names(c.body_names)) and clip.nframe == len(rec.times)
+    world_pos, world_rot = clip.forward_kinematics()
+    # Rotations: each joint's is its body's rotation from rest, exactly.
+    from engine.io.bvh import quat_mul, quat_to_menagerie_axes
+
+    ours = quat_mul(rec.body_rot, np.broadcast_to(c.body_rest_rot * [1, -1, -1, -1], rec.body_rot.shape))
+    dot = np.abs(np.sum(quat_to_menagerie_axes(world_rot) * ours, axis=-1))
+    assert np.all(dot > 1 - 1e-9)
+    # Positions: BVH bones are rigid, so joints land where ours are up to the runtime's own
+    # joint gaps (a child's joint seen from the parent body vs from itself), summed down the tree.
+    joints = to_menagerie_axes(world_pos, 0.01)
+    own = _joint_frames(c, rec.body_pos, rec.body_rot)
+    err = np.linalg.norm(joints - own, axis=-1)
+    assert err[:, 0].max() < 1e-9  # the root joint exactly
+    assert err.max() < 5e-3
+
+
+def test_bake_command_writes_each_creature_and_reports_failures(tmp_path, capsys):
+    from engine.cli import main
+
+    out = tmp_path / "baked"
+    args = ["bake", os.path.join(ROOT, "animations", "wave.yaml"), os.path.join(ROOT, "creatures", "humanoid.yaml"),
+            os.path.join(ROOT, "creatures", "snake.yaml"), "--out", str(out), "--workers", "0", "--quiet"]
+    assert main(args) == 2  # the snake has no graspers: named, the humanoid still baked
+    captured = capsys.readouterr()
+    assert "snake.yaml" in captured.err and "has_graspers" in captured.err
+    assert (out / "humanoid_wave.glb").exists()
+    assert main(args[:3] + ["--out", str(out), "--workers", "0", "--quiet"]) == 2  # exists: needs --force
+    assert "exists" in capsys.readouterr().err
+    assert main(args[:3] + ["--out", str(out), "--workers", "0", "--quiet", "--force", "--format", "bvh",
+                            "--variant", "hand_l"]) == 0
+    assert (out / "humanoid_wave_hand_l.bvh").exists()
+
+
+@pytest.mark.skipif(not clients.validator_available(), reason="npm gltf-validator not installed (setup.sh dev)")
+def test_bake_on_dask_writes_valid_files(tmp_path):
+    pytest.importorskip("distributed")
+    from engine.io.bake import bake
+
+    out = tmp_path / "dask"
+    files = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in ("humanoid", "gorilla")]
+    results = bake(files, os.path.join(ROOT, "animations", "wave.yaml"), str(out), workers=1, progress=False)
+    assert [r.error for r in results] == ["", ""]
+    for r in results:
+        assert clients.validate(r.paths[0])["issues"]["numErrors"] == 0

@@ -99,7 +99,7 @@ def record_clip(creature, animation, variant=None, fps: float = 30.0, seconds: f
         pos[-1] = pos[0]
         rot[-1] = rot[0]
     label = name or (animation.name if getattr(animation, "name", None) else "clip")
-    if variant is not None:
+    if name is None and variant is not None:
         label = f"{label}_{variant}"
     return Recording(name=label, fps=float(fps), body_pos=pos, body_rot=rot, loop=bool(animation.loop))
 
