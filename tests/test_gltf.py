@@ -301,3 +301,20 @@ def test_capture_arms_hang_and_arms_already_down_stay():
     _, _, _, _, turned = relax_arms(h.body_parent, caps, [b.joint for b in cdef_h.bodies],
                                     [b.pos for b in cdef_h.bodies], [b.rot for b in cdef_h.bodies])
     assert turned == []
+
+
+@pytest.mark.parametrize("name", ["fox_khronos.glb", "quaternius_bee.glb"])
+def test_our_reader_agrees_with_pygltflib(name):
+    import pygltflib
+
+    path = os.path.join(RIGS, name)
+    ours = load_gltf(path)
+    ref = pygltflib.GLTF2().load(path)
+    assert [n.name for n in ours.doc.nodes] == [n.name for n in ref.nodes]
+    assert [n.children or [] for n in ours.doc.nodes] == [n.children or [] for n in ref.nodes]
+    assert [s.joints for s in ours.doc.skins] == [s.joints for s in ref.skins]
+    blob = ref.binary_blob()
+    assert ours.buffers[0][:len(blob)] == blob
+    for k, acc in enumerate(ref.accessors[:12]):
+        a = read_accessor(ours, k, finite=False)
+        assert a.shape[0] == acc.count

@@ -184,3 +184,17 @@ def test_bake_on_dask_writes_valid_files(tmp_path):
     assert [r.error for r in results] == ["", ""]
     for r in results:
         assert clients.validate(r.paths[0])["issues"]["numErrors"] == 0
+
+
+def test_reduce_keys_kernel_matches_the_numpy_reference():
+    from engine.io.gltf_export import reduce_keys_reference
+
+    rng = np.random.default_rng(7)
+    for _ in range(6):
+        v = np.cumsum(rng.normal(size=(50, 3)) * 1e-3, axis=0)
+        v[10:30] = v[10] + np.linspace(0, 1, 20)[:, None] * (v[29] - v[10])  # a straight run to drop
+        assert list(reduce_keys(v, False, 1e-3)) == list(reduce_keys_reference(v, False, 1e-3))
+        q = rng.normal(size=(40, 4)) * 0.02 + [1, 0, 0, 0]
+        q = np.cumsum(q, axis=0)
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        assert list(reduce_keys(q, True, 1e-3)) == list(reduce_keys_reference(q, True, 1e-3))

@@ -198,6 +198,18 @@ def reduce_keys(values: np.ndarray, rotation: bool, tol: float = KEY_TOLERANCE) 
     n = len(values)
     if n <= 2:
         return np.arange(n)
+    from engine.io._kernels import reduce_keys_kernel
+
+    mask = np.zeros(n, np.bool_)
+    reduce_keys_kernel(np.ascontiguousarray(values, dtype=np.float64), bool(rotation), float(tol), mask)
+    return np.flatnonzero(mask)
+
+
+def reduce_keys_reference(values: np.ndarray, rotation: bool, tol: float = KEY_TOLERANCE) -> np.ndarray:
+    """``reduce_keys`` written plainly in numpy (the kernel's reference in the tests)."""
+    n = len(values)
+    if n <= 2:
+        return np.arange(n)
     keep = [0]
     a = 0
     k = 2
@@ -254,32 +266,41 @@ _FACES = [  # (normal axis, sign): 4 corners each, counter-clockwise seen from o
     (0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1)]
 
 
+def _box_template():
+    """Unit-box corners (24, 3) in +-1, normals (24, 3) and triangle indices (36,), outward faces
+    counter-clockwise seen from outside."""
+    corners, normals, idx = [], [], []
+    for axis, sign in _FACES:
+        u, v = [a for a in range(3) if a != axis]
+        base = len(corners)
+        quad = []
+        for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            p = np.zeros(3)
+            p[axis], p[u], p[v] = sign, su, sv
+            quad.append(p)
+        nrm = np.zeros(3)
+        nrm[axis] = sign
+        ccw = np.cross(quad[1] - quad[0], quad[2] - quad[0]) @ nrm > 0
+        corners += quad
+        normals += [nrm] * 4
+        idx += [base, base + 1, base + 2, base, base + 2, base + 3] if ccw else \
+               [base, base + 2, base + 1, base, base + 3, base + 2]
+    return np.array(corners), np.array(normals), np.array(idx)
+
+
+_BOX_CORNERS, _BOX_NORMALS, _BOX_INDEX = _box_template()
+
+
 def _box_mesh(creature):
     """Vertices (24n, 3), normals (24n, 3), joints (24n,) and indices (36n,) at rest, Menagerie axes."""
-    verts, norms, joints, idx = [], [], [], []
-    for i in range(creature.nbody):
-        c, q, h = creature.body_rest_pos[i], creature.body_rest_rot[i], creature.body_extent[i]
-        for axis, sign in _FACES:
-            u, v = [a for a in range(3) if a != axis]
-            base = len(verts)
-            corners = []
-            for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                p = np.zeros(3)
-                p[axis] = sign * h[axis]
-                p[u] = su * h[u]
-                p[v] = sv * h[v]
-                corners.append(p)
-            nrm = np.zeros(3)
-            nrm[axis] = sign
-            # Counter-clockwise from outside: (u, v, axis) is right-handed for axis order.
-            ccw = np.cross(corners[1] - corners[0], corners[2] - corners[0]) @ nrm > 0
-            for p in corners:
-                verts.append(c + _qrot(q, p))
-                norms.append(_qrot(q, nrm))
-                joints.append(i)
-            idx += [base, base + 1, base + 2, base, base + 2, base + 3] if ccw else \
-                   [base, base + 2, base + 1, base, base + 3, base + 2]
-    return np.array(verts), np.array(norms), np.array(joints), np.array(idx)
+    n = creature.nbody
+    local = _BOX_CORNERS[None] * creature.body_extent[:, None]            # (n, 24, 3)
+    rot = np.broadcast_to(creature.body_rest_rot[:, None], (n, 24, 4))
+    verts = creature.body_rest_pos[:, None] + _qrot(rot, local)
+    norms = _qrot(rot, np.broadcast_to(_BOX_NORMALS, (n, 24, 3)))
+    joints = np.repeat(np.arange(n), 24)
+    idx = (_BOX_INDEX[None] + 24 * np.arange(n)[:, None]).ravel()
+    return verts.reshape(-1, 3), norms.reshape(-1, 3), joints, idx
 
 
 def gltf_document(creature, recordings: list[Recording], name: str | None = None,
