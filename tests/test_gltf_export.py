@@ -198,3 +198,39 @@ def test_reduce_keys_kernel_matches_the_numpy_reference():
         q = np.cumsum(q, axis=0)
         q /= np.linalg.norm(q, axis=1, keepdims=True)
         assert list(reduce_keys(q, True, 1e-3)) == list(reduce_keys_reference(q, True, 1e-3))
+
+
+def test_motion_round_trip_is_exact_to_float32(tmp_path):
+    from engine.io.gltf import gltf_motion
+
+    c = _creature("humanoid")
+    rec = record_clip(c, _anim("wave"), fps=30)
+    path = save_gltf(c, [rec], tmp_path / "rt.glb", tolerance=0.0)
+    m = gltf_motion(path, rest="file")
+    np.testing.assert_array_equal(m.times, rec.times)
+    np.testing.assert_allclose(m.body_pos, rec.body_pos, atol=1e-6)  # float32 of metres
+    assert np.all(np.abs(np.sum(m.body_rot * rec.body_rot, axis=-1)) > 1 - 1e-12)
+    # With keys reduced (the default) the motion is within the reduction's tolerance.
+    path = save_gltf(c, [rec], tmp_path / "reduced.glb")
+    m = gltf_motion(path, rest="file")
+    np.testing.assert_allclose(m.body_pos, rec.body_pos, atol=1e-4)
+
+
+def test_rig_animations_import_as_clips():
+    from engine.io.gltf import GltfError, gltf_bvh_clip, gltf_motion, import_gltf
+
+    path = os.path.join(RIGS, "fox_khronos.glb")
+    imp = import_gltf(path)
+    walk = gltf_motion(path, "Walk", imported=imp)
+    assert walk.body_pos.shape[1] == len(imp.cdef.bodies)
+    assert walk.times[-1] == pytest.approx(0.708, abs=0.01)
+    assert np.all(np.isfinite(walk.body_pos)) and np.all(np.isfinite(walk.body_rot))
+    # The feet step: each foot body swings forward and back by a good part of a stride.
+    names = [b.name for b in imp.cdef.bodies]
+    foot = walk.body_pos[:, names.index("b_LeftFoot02_018")]
+    assert np.ptp(foot[:, 0]) > 0.2
+    # The first key of the survey clip is near the rest pose: the bodies stay connected.
+    creature, clip = gltf_bvh_clip(path, "Run", fps=30)
+    assert clip.njoint == creature.nbody and clip.nframe >= 30
+    with pytest.raises(GltfError, match="no animation named 'Swim'"):
+        gltf_motion(path, "Swim", imported=imp)

@@ -420,6 +420,8 @@ class GltfImport:
         rest_delta: world rotation (w, x, y, z) the relaxed rest applied to each body
             (identity for bodies it did not move); the file's bind pose is this undone.
         relaxed: the arms swung down, one line each.
+        file_box_pos, file_box_rot: the bodies' boxes in the file's bind pose (grounded),
+            before the relaxed rest moved any; animations are carried from these.
     """
 
     cdef: CreatureDef
@@ -434,6 +436,8 @@ class GltfImport:
     shift: np.ndarray | None = None
     scale: float = 1.0
     rest_delta: np.ndarray | None = None
+    file_box_pos: np.ndarray | None = None
+    file_box_rot: np.ndarray | None = None
     relaxed: list[str] = field(default_factory=list)
 
 
@@ -796,6 +800,7 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
         caps, reasons = find_caps(names, bparent, joint_pos, centre, rotq, half, caps_table=caps_table,
                                   mode=caps_from, tip=tip)
     rest_delta = np.tile([1.0, 0.0, 0.0, 0.0], (len(names), 1))
+    file_box = (centre.copy(), rotq.copy())
     relaxed = []
     if rest == "relaxed":
         from engine.model.rest_pose import relax_arms
@@ -827,7 +832,8 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
     return GltfImport(cdef=cdef, skin=skin, body_node=body_node, helpers=helpers, reattached=reattached,
                       notes=notes,
                       skipped=sorted(doc.nodes[i].name or f"node{i}" for i in skipped), reasons=reasons,
-                      joint_world=jw, shift=shift, scale=scale, rest_delta=rest_delta, relaxed=relaxed)
+                      joint_world=jw, shift=shift, scale=scale, rest_delta=rest_delta, relaxed=relaxed,
+                      file_box_pos=file_box[0], file_box_rot=file_box[1])
 
 
 def creature_def_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
@@ -843,3 +849,166 @@ def creature_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_ta
 
     return build_creature(creature_def_from_gltf(path, skin=skin, caps_table=caps_table, scale=scale, name=name,
                                                  rest=rest))
+
+
+# -- animations ------------------------------------------------------------------------------
+
+
+@dataclass
+class GltfMotion:
+    """One glTF animation sampled as poses of the bodies ``import_gltf`` made (a BVH-like
+    clip for the motion-capture tools): ``times`` (nf,) s, ``body_pos`` (nf, nb, 3) world box
+    centres, ``body_rot`` (nf, nb, 4) w-first, Menagerie axes, metres, the import's
+    grounding applied. ``frame_time`` is the sampling step."""
+
+    name: str
+    times: np.ndarray
+    body_pos: np.ndarray
+    body_rot: np.ndarray
+
+    @property
+    def frame_time(self) -> float:
+        return float(self.times[1] - self.times[0]) if len(self.times) > 1 else 0.0
+
+
+def _sample_channel(gf: GltfFile, sampler, times: np.ndarray, path: str, anim_index: int) -> np.ndarray:
+    t_in = read_accessor(gf, sampler.input)[:, 0]
+    out = read_accessor(gf, sampler.output)
+    interp = sampler.interpolation or "LINEAR"
+    if len(t_in) == 0 or np.any(np.diff(t_in) <= 0):
+        raise GltfError("sampler input times must be strictly increasing", path=gf.path, subject=str(anim_index),
+                        kind="animation", field="samplers.input")
+    cubic = interp == "CUBICSPLINE"
+    if out.shape[0] != len(t_in) * (3 if cubic else 1):
+        raise GltfError(f"sampler output has {out.shape[0]} values for {len(t_in)} times ({interp})",
+                        path=gf.path, subject=str(anim_index), kind="animation", field="samplers.output")
+    t = np.clip(times, t_in[0], t_in[-1])
+    k = np.clip(np.searchsorted(t_in, t, side="right") - 1, 0, len(t_in) - 1)
+    k1 = np.minimum(k + 1, len(t_in) - 1)
+    span = np.where(k1 > k, t_in[k1] - t_in[k], 1.0)
+    u = np.where(k1 > k, (t - t_in[k]) / span, 0.0)[:, None]
+    if interp == "STEP":
+        return out[k]
+    if cubic:
+        v, a, b = out[1::3], out[0::3], out[2::3]
+        u2, u3 = u * u, u * u * u
+        res = ((2 * u3 - 3 * u2 + 1) * v[k] + (u3 - 2 * u2 + u) * span[:, None] * b[k]
+               + (-2 * u3 + 3 * u2) * v[k1] + (u3 - u2) * span[:, None] * a[k1])
+        if path == "rotation":
+            res /= np.linalg.norm(res, axis=1, keepdims=True)
+        return res
+    if path == "rotation":  # slerp, short path (xyzw)
+        qa, qb = out[k], out[k1]
+        d = np.sum(qa * qb, axis=1, keepdims=True)
+        qb = np.where(d < 0, -qb, qb)
+        d = np.clip(np.abs(d), -1.0, 1.0)
+        th = np.arccos(d)
+        sn = np.sin(th)
+        small = sn < 1e-9
+        wa = np.where(small, 1 - u, np.sin((1 - u) * th) / np.where(small, 1.0, sn))
+        wb = np.where(small, u, np.sin(u * th) / np.where(small, 1.0, sn))
+        res = wa * qa + wb * qb
+        return res / np.linalg.norm(res, axis=1, keepdims=True)
+    return out[k] + u * (out[k1] - out[k])
+
+
+def gltf_motion(path: str | os.PathLike, animation: int | str = 0, fps: float | None = None,
+                imported: GltfImport | None = None, **import_args) -> GltfMotion:
+    """Sample animation ``animation`` (index or name) of the rig in ``path`` as body poses.
+
+    Times are the animation's own key times (the union over its samplers), or a regular
+    ``fps`` grid over its range. Every channel is honoured (LINEAR slerp/lerp, STEP,
+    CUBICSPLINE Hermite with normalized rotations), also on non-joint nodes above the
+    joints. A body moves rigidly with its joint node: pose(t) = W(t) W_rest^-1 box_rest (the
+    box in the file's bind pose). ``imported``: a ``GltfImport`` of the same file to reuse.
+    """
+    gf = load_gltf(path)
+    imp = imported if imported is not None else import_gltf(path, **import_args)
+    anims = gf.doc.animations or []
+    if isinstance(animation, str):
+        names = [a.name for a in anims]
+        if animation not in names:
+            raise GltfError(f"no animation named {animation!r} (the file has: {', '.join(map(str, names))})",
+                            path=gf.path, field="animations")
+        animation = names.index(animation)
+    if not (0 <= animation < len(anims)):
+        raise GltfError(f"animation {animation} does not exist (the file has {len(anims)})", path=gf.path,
+                        field="animations")
+    anim = anims[animation]
+    samplers = anim.samplers or []
+    key_times = [read_accessor(gf, s.input)[:, 0] for s in samplers]
+    lo = min(float(t[0]) for t in key_times)
+    hi = max(float(t[-1]) for t in key_times)
+    if fps is not None:
+        times = np.arange(int(np.floor((hi - lo) * fps + 1e-9)) + 1) / fps + lo
+    else:
+        times = np.unique(np.concatenate(key_times))
+    parent = node_parents(gf)
+    nnode = len(gf.doc.nodes)
+    base = []
+    for i, node in enumerate(gf.doc.nodes):
+        if node.matrix is not None:
+            m = node_local_matrix(gf, i)
+            r = polar_rotation(m[:3, :3])
+            sc = np.linalg.norm(m[:3, :3], axis=0)
+            q = matrix_to_quat(r)
+            base.append([m[:3, 3].copy(), np.array([q[1], q[2], q[3], q[0]]), sc])
+        else:
+            base.append([np.asarray(node.translation if node.translation is not None else [0, 0, 0], float),
+                         np.asarray(node.rotation if node.rotation is not None else [0, 0, 0, 1], float),
+                         np.asarray(node.scale if node.scale is not None else [1, 1, 1], float)])
+    tracks = {}
+    for ch in anim.channels or []:
+        target = ch.target
+        if target is None or target.node is None or target.path not in ("translation", "rotation", "scale"):
+            continue  # weights (morph targets) and pointers move no joint
+        if not (0 <= target.node < nnode) or not (0 <= ch.sampler < len(samplers)):
+            raise GltfError("channel points at a missing node or sampler", path=gf.path, subject=str(animation),
+                            kind="animation", field="channels")
+        tracks[(target.node, target.path)] = _sample_channel(gf, samplers[ch.sampler], times, target.path, animation)
+    C = GLTF_TO_MENAGERIE
+    nb = len(imp.body_node)
+    nf = len(times)
+    body_pos = np.zeros((nf, nb, 3))
+    body_rot = np.zeros((nf, nb, 4))
+    rest_w = imp.joint_world  # Menagerie axes, before the shift
+    for f in range(nf):
+        local = []
+        for i in range(nnode):
+            t, r, s = base[i]
+            t = tracks.get((i, "translation"), None)[f] if (i, "translation") in tracks else t
+            r = tracks.get((i, "rotation"), None)[f] if (i, "rotation") in tracks else r
+            s = tracks.get((i, "scale"), None)[f] if (i, "scale") in tracks else s
+            local.append(node_local_matrix(gf, i, trs=(t, r, s)))
+        world = world_matrices(gf, parent, local)
+        for b, j in enumerate(imp.body_node):
+            if j < 0:
+                w = rest_w[b]
+            else:
+                w = np.eye(4)
+                w[:3, :3] = C @ polar_rotation(world[j][:3, :3]) @ C.T
+                w[:3, 3] = imp.scale * (C @ world[j][:3, 3])
+            rel = w @ np.linalg.inv(rest_w[b])
+            box_rest = np.eye(4)
+            box_rest[:3, :3] = quat_to_matrix(imp.file_box_rot[b])
+            box_rest[:3, 3] = imp.file_box_pos[b] - imp.shift
+            box = rel @ box_rest
+            body_pos[f, b] = box[:3, 3] + imp.shift
+            body_rot[f, b] = matrix_to_quat(polar_rotation(box[:3, :3]))
+    return GltfMotion(name=anim.name or f"animation_{animation}", times=times - lo, body_pos=body_pos,
+                      body_rot=body_rot)
+
+
+def gltf_bvh_clip(path: str | os.PathLike, animation: int | str = 0, fps: float = 30.0, **import_args):
+    """Animation ``animation`` of a rig as a ``BvhClip`` on the imported creature's skeleton
+    (for the motion-capture tools and the impact library, which read BVH clips), sampled at
+    ``fps``. Returns (creature, clip)."""
+    from engine.io.bake import recording_to_bvh
+    from engine.io.gltf_export import Recording
+    from engine.model.builder import build_creature
+
+    imp = import_gltf(path, **import_args)
+    motion = gltf_motion(path, animation, fps=fps, imported=imp)
+    creature = build_creature(imp.cdef)
+    rec = Recording(name=motion.name, fps=fps, body_pos=motion.body_pos, body_rot=motion.body_rot)
+    return creature, recording_to_bvh(creature, rec)

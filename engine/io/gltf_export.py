@@ -431,14 +431,14 @@ def glb_bytes(doc: dict, data: bytes) -> bytes:
 
 
 def save_gltf(creature, recordings: list[Recording], path: str | os.PathLike, *, overwrite: bool = False,
-              name: str | None = None) -> str:
+              name: str | None = None, tolerance: float = KEY_TOLERANCE) -> str:
     """Write ``.glb`` (one file) or ``.gltf`` (JSON with the buffer as a data URI)."""
     import base64
 
     path = os.fspath(path)
     if os.path.exists(path) and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (or --force) to replace it")
-    doc, data = gltf_document(creature, recordings, name=name)
+    doc, data = gltf_document(creature, recordings, name=name, tolerance=tolerance)
     suffix = os.path.splitext(path)[1].lower()
     if suffix == ".glb":
         blob = glb_bytes(doc, data)
