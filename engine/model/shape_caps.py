@@ -7,11 +7,17 @@ when they follow a convention the table knows; a Character Creator capture
 So the rest pose decides first, in Menagerie axes (Z up, X forward, Y left) with the
 creature standing on z = 0:
 
-1. **Sagittal bodies**: the root and every body on the sagittal plane (|y| <= ``SIDE_FRACTION``
-   x size) whose parent is sagittal too. The rest hang off them as *side chains*.
+1. **Sagittal bodies**: the root and every body whose parent is sagittal and that is not
+   *sided*. A body is sided when it lies off the plane (joint or box centre beyond
+   ``SIDE_FRACTION`` x size) and has a mirror partner (a body at its reflection within
+   ``MIRROR_FRACTION`` x size): a coiled snake's body is off the plane but has none. A
+   link whose only child is sided is sided too. Sided bodies hang off as *side chains*.
 2. **Head and spine**: among the ends of sagittal chains, the head is the one that lies
    highest and furthest forward (largest x + z relative to the root, by the far end of its
-   box). The spine is the path from the root to it; the head is its last body.
+   box); small bodies past it (a jaw, a tongue: under ``HEAD_TRIM_RATIO`` of the body
+   before) are trimmed off. The spine runs from the head back to the farthest sagittal body
+   that carries a side chain (a quadruped's hips when the file's root is its chest; the
+   root when nothing does), then on up to the file's root.
 3. **Sagittal branches** off the spine: one whose end lies behind where it leaves the
    spine and that has ``TAIL_MIN_BODIES`` or more bodies is a tail; one off the head is
    the mouth (its first body; the rest are detail); any other is detail.
@@ -22,7 +28,8 @@ creature standing on z = 0:
    body on the main path whose joint lies below ``FOOT_FRACTION`` x the chain's start
    height (else the last body), later bodies are detail. Any other chain is an **arm**:
    its grasper is the first body on the main path where it branches in two or more (a
-   hand with fingers), else its last body; later bodies and side branches are detail.
+   hand with fingers), else its last body; later bodies and side branches are detail. A
+   free chain shorter than ``ARM_MIN_BODIES`` is a spike (by name) or detail.
 5. **Names as a hint**: a name the table maps to ``wing`` turns an arm into a wing (no
    grasper); ``eye``/``ear``/``mouth``/``tail`` names add that capability to a body off
    the spine. Names are matched as in the BVH importer, also with leading ``Xx_`` tokens
@@ -45,6 +52,8 @@ SIDE_FRACTION = 0.03
 GROUND_FRACTION = 0.12
 #: A leg's foot: the first body whose joint is below this fraction of the leg's start height.
 FOOT_FRACTION = 0.22
+#: A free side chain needs this many bodies on its main path to be an arm (else a spike, a fin stub).
+ARM_MIN_BODIES = 2
 #: Bodies at the mirror image of each other within this fraction of the size are a pair.
 MIRROR_FRACTION = 0.06
 #: A body at the end of the head path smaller than this fraction of its parent is not the head.
@@ -85,6 +94,30 @@ def name_caps(name: str, compiled) -> list[str] | None:
             if rx.fullmatch(cand):
                 return list(caps)
     return None
+
+
+def _subtree(children, j):
+    out, stack = [], [j]
+    while stack:
+        k = stack.pop()
+        out.append(k)
+        stack.extend(children[k])
+    return out
+
+
+def _tree_path(parent, a, b):
+    """Bodies on the tree path from ``a`` to ``b`` (both included)."""
+    up_a, j = [], a
+    while j >= 0:
+        up_a.append(int(j))
+        j = parent[j]
+    up_b, j = [], b
+    seen = set(up_a)
+    while j not in seen:
+        up_b.append(int(j))
+        j = parent[j]
+    lca = int(j)
+    return up_a[:up_a.index(lca) + 1] + up_b[::-1]
 
 
 def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode="shape", tip=None):
@@ -138,6 +171,11 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         d[(dy * dy[j] >= 0) | (np.abs(dy) <= 0.5 * side_tol)] = np.inf  # a partner lies on the other side
         k = int(np.argmin(d))
         sided[j] = bool(d[k] <= mirror_tol and (off[j] or off[k]))
+    # A link on the plane whose only child is sided belongs to that side chain (CMU's
+    # LHipJoint: a zero-offset joint from the hips to the thigh).
+    for j in range(n - 1, 0, -1):
+        if not sided[j] and len(children[j]) == 1 and sided[children[j][0]]:
+            sided[j] = True
     sag = np.zeros(n, bool)
     for j in range(n):
         sag[j] = j == 0 or (sag[parent[j]] and not sided[j])
@@ -171,6 +209,15 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
     while len(path) > 2 and vol[path[-1]] < HEAD_TRIM_RATIO * vol[path[-2]]:
         trimmed.append(path.pop())
     head = path[-1]
+    # The spine runs from the head to the farthest body that carries a side chain (the hips
+    # of a quadruped whose file root is its chest), then on up a serial chain to the root.
+    below_head = set(_subtree(children, head)) | set(trimmed)
+    attach = [j for j in range(n) if sag[j] and j not in below_head and any(not sag[c] for c in children[j])]
+    if attach:
+        far = max(attach, key=lambda a: (len(_tree_path(parent, head, a)), -a))
+        path = _tree_path(parent, far, head)
+        while parent[path[0]] >= 0 and parent[path[0]] not in path and sag[parent[path[0]]]:
+            path.insert(0, int(parent[path[0]]))
     is_spine = np.zeros(n, bool)
     is_spine[path] = True
     caps: list[list[str] | None] = [None] * n
@@ -254,6 +301,11 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             elif wing:
                 mark(mp, ["limb", "wing"], f"wing: a free side chain off {names[s]} named as a wing")
                 mark(bodies, ["detail"], "detail: off the wing's main path")
+            elif len(mp) < ARM_MIN_BODIES:
+                hint = named[c] or []
+                cap = "spike" if "spike" in hint else "detail"
+                mark(bodies, [cap], f"{cap}: a short free side chain off {names[s]} (an arm has "
+                                    f"{ARM_MIN_BODIES} or more bodies)")
             else:
                 grasp = next((b for b in mp if len(children[b]) >= 2), mp[-1])
                 k = mp.index(grasp)
