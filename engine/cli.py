@@ -78,7 +78,8 @@ def cmd_creatures_from_bvh(args: argparse.Namespace) -> int:
     from engine.model import build_creature, write_creature_def
 
     table = load_caps_table(args.caps) if args.caps else None
-    cdef = creature_def_from_bvh(args.file, caps_table=table, scale=args.scale)
+    rest = args.rest_frame if getattr(args, "rest_frame", None) is not None else "relaxed"
+    cdef = creature_def_from_bvh(args.file, caps_table=table, scale=args.scale, rest=rest)
     creature = build_creature(cdef)  # validate before writing anything
     try:
         write_creature_def(cdef, args.out, overwrite=args.force)
@@ -194,6 +195,8 @@ def add_batch_commands(sub) -> None:
     bvh.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
     bvh.add_argument("--scale", type=float, default=None, help="file units to metres (default: auto)")
     bvh.add_argument("--force", action="store_true", help="overwrite an existing file")
+    bvh.add_argument("--rest-frame", type=int, default=None,
+                     help="take the rest pose from this capture frame (default: the relaxed OFFSET pose)")
     bvh.set_defaults(func=cmd_creatures_from_bvh)
     add_gltf_commands(csub)
     add_bake_command(sub)

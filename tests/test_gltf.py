@@ -318,3 +318,26 @@ def test_our_reader_agrees_with_pygltflib(name):
     for k, acc in enumerate(ref.accessors[:12]):
         a = read_accessor(ours, k, finite=False)
         assert a.shape[0] == acc.count
+
+
+def test_rest_from_a_capture_frame(tmp_path):
+    from engine.cli import main
+    from engine.io.bvh import load_bvh
+    from engine.io.bvh_creature import creature_def_from_bvh
+    from engine.model import load_creature
+
+    path = os.path.join(MOCAP, "cmu_02_01_walk.bvh")
+    clip = load_bvh(path)
+    cdef = creature_def_from_bvh(clip, rest=100)
+    c = build_creature(cdef)
+    assert (c.nleg, c.counts()["arms"]) == (2, 2)
+    assert abs(c.bounds[0, 2]) < 1e-9
+    # The arms hang as the walker holds them at frame 100, not out in the T-pose.
+    body = {b.name: b for b in cdef.bodies}
+    d = np.array(body["LeftHand"].joint) - np.array(body["LeftArm"].joint)
+    assert d[2] < -0.8 * np.linalg.norm(d)
+    with pytest.raises(Exception, match="rest frame 99999 is outside"):
+        creature_def_from_bvh(clip, rest=99999)
+    out = tmp_path / "walk100.yaml"
+    assert main(["creatures", "from-bvh", path, "--out", str(out), "--rest-frame", "100"]) == 0
+    assert load_creature(out).nleg == 2

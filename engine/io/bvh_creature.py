@@ -369,7 +369,7 @@ def _rest_boxes(clip: BvhClip, scale: float):
 
 def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
                           scale: float | None = None, name: str | None = None,
-                          caps_from: str = "shape", rest: str = "relaxed") -> CreatureDef:
+                          caps_from: str = "shape", rest: str | int = "relaxed") -> CreatureDef:
     """A ``CreatureDef`` for a BVH skeleton (a ``BvhClip`` or a file path).
 
     Args:
@@ -381,7 +381,8 @@ def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table:
             hint, a user's ``caps_table`` last) or ``"names"`` (the name table alone).
         rest: ``"relaxed"`` swings T-pose arms down (``engine.model.rest_pose``) so
             rest-relative channels act as on the library humanoid; ``"file"`` keeps the
-            OFFSET pose.
+            OFFSET pose; a frame number takes the capture's pose at that frame (capabilities
+            still come from the OFFSET pose, where the skeleton is symmetric).
 
     The definition is validated by building it once, so a caps table that breaks the spine
     chain fails here with ``CreatureError`` naming the BVH file and the joint's line.
@@ -406,14 +407,30 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
     tip = to_menagerie_axes(end_file, scale) + shift
     caps, reasons = find_caps(clip.joint_names, clip.joint_parent, joint_pos, centre, rot, half,
                               caps_table=caps_table, mode=caps_from, tip=tip)
-    if rest == "relaxed":
+    if isinstance(rest, int) and not isinstance(rest, bool):
+        # A chosen capture frame as the rest: every body where the capture has it at that
+        # frame (bvh_body_poses), then on the ground with the root joint above the origin.
+        if not (0 <= rest < clip.nframe):
+            raise DataError(f"rest frame {rest} is outside the capture's 0..{clip.nframe - 1}", path=clip.path,
+                            field="rest_frame")
+        body_pos, body_rot = bvh_body_poses(clip, scale=scale, frames=[rest])
+        world_pos, _ = clip.forward_kinematics([rest])
+        joint_pos = to_menagerie_axes(world_pos, scale)[0]
+        centre, rot = body_pos[0], body_rot[0]
+        shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rot, half)])
+        joint_pos = joint_pos + shift
+        centre = centre + shift
+        for j in range(len(reasons)):
+            reasons[j] += f"; rest from capture frame {rest}" if j == 0 else ""
+    elif rest == "relaxed":
         from engine.model.rest_pose import relax_arms
 
         joint_pos, centre, rot, _, turned = relax_arms(clip.joint_parent, caps, joint_pos, centre, rot)
         for g, s, ang in turned:
             reasons[g] += f"; arm swung down at {clip.joint_names[s]} ({ang:.0f} deg from hanging)"
     elif rest != "file":
-        raise DataError(f"rest must be 'relaxed' or 'file', got {rest!r}", path=clip.path, field="rest")
+        raise DataError(f"rest must be 'relaxed', 'file' or a frame number, got {rest!r}", path=clip.path,
+                        field="rest")
 
     if name is None:
         name = os.path.splitext(os.path.basename(clip.path))[0] if clip.path else "bvh_creature"
@@ -438,7 +455,7 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
 
 
 def creature_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
-                      scale: float | None = None, name: str | None = None, rest: str = "relaxed") -> Creature:
+                      scale: float | None = None, name: str | None = None, rest: str | int = "relaxed") -> Creature:
     """The built ``Creature`` for a BVH skeleton; arguments as ``creature_def_from_bvh``."""
     return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name,
                                                 rest=rest))
