@@ -234,3 +234,27 @@ def test_rig_animations_import_as_clips():
     assert clip.njoint == creature.nbody and clip.nframe >= 30
     with pytest.raises(GltfError, match="no animation named 'Swim'"):
         gltf_motion(path, "Swim", imported=imp)
+
+
+def test_a_live_session_records_and_exports(tmp_path):
+    from engine.io.gltf import gltf_motion
+    from engine.io.gltf_export import SessionRecorder
+
+    c = _creature("humanoid")
+    char = engine.Character(c)
+    char.play(_anim("wave"))
+    rec = SessionRecorder(char, fps=30)
+    char.tick(1e-6)
+    rec.capture()
+    steps = [1 / 60, 1 / 45, 1 / 90] * 20  # uneven game frames
+    for dt in steps:
+        char.tick(dt)
+        rec.capture(dt)
+    r = rec.recording("session")
+    assert r.body_pos.shape == (int(np.floor(sum(steps) * 30 + 1e-9)) + 1, c.nbody, 3)
+    np.testing.assert_allclose(r.body_pos[0], rec._pos[0])
+    path = save_gltf(c, [r], tmp_path / "session.glb", tolerance=0.0)
+    m = gltf_motion(path, rest="file")
+    np.testing.assert_allclose(m.body_pos, r.body_pos, atol=1e-6)
+    with pytest.raises(ValueError, match="positive"):
+        rec.capture(0.0)

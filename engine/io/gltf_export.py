@@ -104,6 +104,49 @@ def record_clip(creature, animation, variant=None, fps: float = 30.0, seconds: f
     return Recording(name=label, fps=float(fps), body_pos=pos, body_rot=rot, loop=bool(animation.loop))
 
 
+class SessionRecorder:
+    """Records a live ``Character`` (a game session, the viewer) for export: call
+    ``capture()`` after each ``tick``; ``recording(name)`` gives a ``Recording`` resampled
+    to ``fps`` (linear positions, normalized-lerp rotations between captured frames), so
+    ticks of any length export as regular keys.
+
+        rec = SessionRecorder(char)
+        for dt in frame_times: char.tick(dt); rec.capture(dt)
+        save_gltf(char.creature, [rec.recording("session")], "session.glb")
+    """
+
+    def __init__(self, char, fps: float = 30.0):
+        self.char = char
+        self.fps = float(fps)
+        self.t = 0.0
+        self._times: list[float] = []
+        self._pos: list[np.ndarray] = []
+        self._rot: list[np.ndarray] = []
+
+    def capture(self, dt: float = 0.0) -> None:
+        """Keep the character's current world pose, ``dt`` seconds after the previous one."""
+        if self._times:
+            if not (np.isfinite(dt) and dt > 0):
+                raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+            self.t += float(dt)
+        self._times.append(self.t)
+        self._pos.append(np.array(self.char.world_positions))
+        self._rot.append(np.array(self.char.world_rotations))
+
+    def recording(self, name: str = "session") -> Recording:
+        if len(self._times) < 2:
+            raise ValueError("a recording needs at least two captured frames")
+        times = np.array(self._times)
+        pos, rot = np.array(self._pos), _continuous(np.array(self._rot))
+        out_t = np.arange(int(np.floor(times[-1] * self.fps + 1e-9)) + 1) / self.fps
+        k = np.clip(np.searchsorted(times, out_t, side="right") - 1, 0, len(times) - 2)
+        u = ((out_t - times[k]) / (times[k + 1] - times[k]))[:, None, None]
+        p = pos[k] + u * (pos[k + 1] - pos[k])
+        q = rot[k] + u * (rot[k + 1] - rot[k])
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        return Recording(name=name, fps=self.fps, body_pos=p, body_rot=q, loop=False)
+
+
 # -- small quaternion helpers ---------------------------------------------------------------
 
 
