@@ -192,6 +192,12 @@ class Character:
         #: The locomotion controller (``engine.gait.GaitController``), made by the first
         #: ``locomote`` call; None while the character has never been asked to move.
         self.gait = None
+        # -- impact response (engine.response.impact) ------------------------------------
+        self.response = None                    #: the ImpactResponse, made by the first hit
+        self._prev_world_pos = self.world_positions.copy()   # last frame's displayed pose
+        self._prev_world_rot = self.world_rotations.copy()
+        self._last_dt = 1.0 / 60.0
+        # -- end impact response ---------------------------------------------------------
 
     # -- views into the stack ----------------------------------------------------------
 
@@ -351,6 +357,9 @@ class Character:
     def tick(self, dt: float) -> None:
         """Advance the character by ``dt`` seconds and pose every body."""
         _check_dt(dt)
+        np.copyto(self._prev_world_pos, self.world_positions)   # impact response: the
+        np.copyto(self._prev_world_rot, self.world_rotations)   # finite-difference velocity
+        self._last_dt = dt
         st = self.stages
         if st.player:
             self.player.advance(dt)                     # 1. player: clip times, fades, queue, events
@@ -366,7 +375,28 @@ class Character:
         _solve_character(self)                          # 6. IK (or the rest pose when off)
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
+        if self.response is not None and self.response.phase != "idle":
+            self.response.tick(dt)                      # 9. impact response (engine.response)
         self._frame += 1
+
+    # -- impact response (engine.response.impact) ----------------------------------------
+
+    def hit(self, body, impulse, point=None, duration: float = 0.0) -> None:
+        """Hit ``body`` (name or index) with ``impulse`` (N s, world), at ``point`` (world;
+        None: the body's centre), as a contact lasting ``duration`` s (0: instantaneous).
+        The character is physical from this tick and re-enters animation by itself; a hit
+        during a response re-plans from the current physical state."""
+        if self.response is None:
+            from engine.response.impact import ImpactResponse
+
+            self.response = ImpactResponse(self)
+        self.response.hit(body, impulse, point, duration)
+
+    @property
+    def reacting(self) -> bool:
+        """Whether an impact response is running (``response.phase``, ``response.clip``)."""
+        return self.response is not None and self.response.phase != "idle"
+    # -- end impact response -------------------------------------------------------------
 
     # -- outputs -----------------------------------------------------------------------
 
