@@ -93,7 +93,15 @@ def _models(creature, p: ImpactParams):
     per = _MODELS.setdefault(creature, {})
     hit = per.get(key)
     if hit is None:
-        opts = CreatureBodyOptions(servo_hz=p.servo_hz, servo_zeta=p.servo_zeta)
+        # Leaves lighter than 1% of the creature (eyes, ears, a jaw, fingertips) ride locked
+        # on their parents: their tiny inertia lets a hit spin them tens of rad/s, and they
+        # carry nothing of the reaction.
+        vol = np.prod(np.maximum(np.asarray(creature.body_extent, float), 1e-6), axis=1)
+        has_child = np.zeros(creature.nbody, bool)
+        has_child[[int(q) for q in creature.body_parent if q >= 0]] = True
+        locked = tuple(creature.body_names[b] for b in range(1, creature.nbody)
+                       if not has_child[b] and vol[b] < 0.01 * vol.sum())
+        opts = CreatureBodyOptions(servo_hz=p.servo_hz, servo_zeta=p.servo_zeta, locked=locked)
         out = []
         for mu in (p.sim1_mu, p.sim2_mu):
             foot = ContactSettings(hz=DEFAULT_FOOT.hz, zeta=DEFAULT_FOOT.zeta, mu=mu, spin_mu=DEFAULT_FOOT.spin_mu)
