@@ -207,20 +207,17 @@ class ImpactResponse:
         self.clip = None
         self.match = None
         self._blend_t = 0.0
-        if duration > 0.0:
-            self._contact.append([b, J / duration, point, float(duration)])
-        else:
-            _apply_impulse(self.model2, self.sim2, b, J, point)
+        # An instantaneous hit is delivered as a force over one frame, so the joint solver
+        # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
+        span = float(duration) if duration > 0.0 else ch._last_dt
+        self._contact.append([b, J / span, point, span])
         self._contact_end = duration
         # the servos hold the interrupted clip's pose as it was at the impact (Simulation 1)
         servo_targets_from_pose(self.model2, ch.world_rotations, self._hold_rot)
         np.copyto(self.sim2.joint_target_rot, self._hold_rot)
         # Simulation 1 restarts from the live state (a second hit re-plans from here)
         _copy_state(self.sim1, self.sim2)
-        if duration > 0.0:
-            self._sim1_contact = [b, J / duration, point, float(duration)]
-        else:
-            self._sim1_contact = None
+        self._sim1_contact = [b, J / span, point, span]
         self._sim1_count = 0
         self._sim1_done = 0.0
         self._record_sim1()
@@ -264,7 +261,7 @@ class ImpactResponse:
                 self.phase = "idle"
             else:
                 anim_pos += kx * self._off_pos + kv * self._off_vel
-                rv = kx * self._off_rot + kv * self._off_angvel
+                rv = kx * self._off_rot     # rotations: the offset alone (see _start_blend)
                 _rotate_by_rotvec(rv, anim_rot)
         self.root_trace.append((self.since_start, self.phase, float(anim_pos[0, 2])))
 
@@ -344,8 +341,10 @@ class ImpactResponse:
         anim_vel = (anim_pos - self._prev_anim_pos) / dt
         np.subtract(s.body_linvel, anim_vel, out=self._off_vel)
         self._off_rot[:] = rotvec_between(anim_rot, s.body_rot)
-        anim_w = rotvec_between(self._prev_anim_rot, anim_rot) / dt
-        np.subtract(s.body_angvel, anim_w, out=self._off_angvel)
+        # The angular-velocity offset is not carried: the animated pose's finite-difference
+        # angular velocity at the hand-off tick includes the found clip's fade and the
+        # jiggles' springs, and carrying it flipped ears 0.6 rad in a frame. Rotations are
+        # continuous at the hand-off; their rate is the animation's from then on.
         self.phase = "blend"
         self._blend_t = 0.0
         np.copyto(anim_pos, s.body_pos)
