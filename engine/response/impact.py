@@ -141,6 +141,10 @@ class ImpactResponse:
         self._sim1_done = 0.0
         self._sim1_count = 0
         self._hold_rot = np.zeros((self.model1.njoint, 4))
+        self._found_rot = np.zeros((self.model1.njoint, 4))
+        self._armed = False
+        self._plan_time = 0.0
+        self._resume = None           # the looping clip playing before the response
         self._prev_anim_pos = np.zeros((n, 3))
         self._prev_anim_rot = np.zeros((n, 4))
         self._off_pos = np.zeros((n, 3))
@@ -197,6 +201,8 @@ class ImpactResponse:
                                      ch._prev_world_rot, dt)
             _copy_state(self.sim2, s)
             if self.phase == "idle":
+                loops = [h.animation for h in ch.player.handles if h is not None and h.animation.loop]
+                self._resume = loops[0] if loops else None
                 self.since_start = 0.0
                 self.root_trace = []
                 self.sim1_trace = []
@@ -206,6 +212,7 @@ class ImpactResponse:
         self.time = 0.0
         self.clip = None
         self.match = None
+        self._armed = False
         self._blend_t = 0.0
         # An instantaneous hit is delivered as a force over one frame, so the joint solver
         # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
@@ -239,13 +246,15 @@ class ImpactResponse:
                 if self.time >= p.reaction_delay:
                     self._plan()
             if self.phase == "transition":
-                servo_targets_from_pose(self.model2, anim_rot, self.sim2.joint_target_rot)
+                self._transition_targets()
             self._apply_contacts(self.model2, self.sim2, self._contact, dt)
             sub = max(1, int(math.ceil(dt / p.substep)))
             step(self.model2, self.sim2, dt, substeps=sub)
-            if self.phase == "transition" and self.time >= self._handoff:
+            if self.phase == "transition" and self._armed:
                 self._start_blend(anim_pos, anim_rot, dt)
             else:
+                if self.phase == "transition" and self.time + dt >= self._handoff - 1e-9:
+                    self._arm(dt)
                 np.copyto(self._prev_anim_pos, anim_pos)
                 np.copyto(self._prev_anim_rot, anim_rot)
                 np.copyto(anim_pos, self.sim2.body_pos)
@@ -322,23 +331,54 @@ class ImpactResponse:
         self.clip = self.library.clips[res.clip]
         self.clip_time = res.clip_time
         self._handoff = res.sim_frame * self._frame_dt
-        ch = self.char
-        # place the character so the clip's root at the matched time sits on Simulation 1's
-        # root at the match (yaw and ground-plane translation)
-        ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
-        lead = max(self._handoff - self.time, 0.0)
-        start = self.clip_time - lead
-        if self.clip.loop:
-            start = start % self.clip.length
-        start = min(max(start, 0.0), self.clip.length)
-        ch.play(self.clip, fade=max(lead, 1e-3), start_time=start)
+        self._plan_time = self.time
+        self._armed = False
         self.phase = "transition"
+        if self.time + self._frame_dt * 0 >= self._handoff - 1e-9:
+            self._arm(0.0)
+
+    def _transition_targets(self) -> None:
+        """theta_d: the interrupted pose slerped with ease-in/out toward the found clip's
+        pose at the time it will have at the hand-off (the library's frames: joint-relative
+        rotations do not depend on the placement)."""
+        lib = self.library
+        s = self.match.lib_frame
+        back = int(round((self._handoff - self.time) / self._frame_dt))
+        f = s - back
+        first = int(np.searchsorted(lib.clip_of, lib.clip_of[s]))
+        f = max(f, first)
+        span = max(self._handoff - self._plan_time, 1e-6)
+        u = min(max((self.time - self._plan_time) / span, 0.0), 1.0)
+        u = u * u * (3.0 - 2.0 * u)
+        servo_targets_from_pose(self.model2, lib.rot[f], self._found_rot)
+        _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
+
+    def _arm(self, dt: float) -> None:
+        """One tick before the hand-off: the found clip starts (no fade: the pose is the
+        library's, the one the search matched), placed so its root at the matched time sits
+        on Simulation 1's root at the match (yaw and ground-plane translation)."""
+        ch = self.char
+        res = self.match
+        ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
+        start = min(max(self.clip_time - dt, 0.0), self.clip.length)
+        ch.play(self.clip, fade=0.0, start_time=start)
+        if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
+            ch.queue(self._resume, fade=0.3)       # after a one-shot reaction: what played before
+        self._armed = True
 
     def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
         """Hand-off: the offset between physics and animation, and its velocity."""
         s = self.sim2
         np.subtract(s.body_pos, anim_pos, out=self._off_pos)
-        anim_vel = (anim_pos - self._prev_anim_pos) / dt
+        # the found clip's velocity from the library (its first frame has no previous one)
+        lib = self.library
+        f = self.match.lib_frame
+        if f > 0 and lib.clip_of[f - 1] == lib.clip_of[f]:
+            v = (lib.pos[f] - lib.pos[f - 1]) * lib.rate
+            c, sn = math.cos(self.match.place_yaw), math.sin(self.match.place_yaw)
+            anim_vel = np.stack([c * v[:, 0] - sn * v[:, 1], sn * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
+        else:
+            anim_vel = np.zeros_like(anim_pos)
         np.subtract(s.body_linvel, anim_vel, out=self._off_vel)
         self._off_rot[:] = rotvec_between(anim_rot, s.body_rot)
         # The angular-velocity offset is not carried: the animated pose's finite-difference
@@ -360,6 +400,21 @@ def _apply_impulse(model, state, b: int, J: np.ndarray, point) -> None:
         R = _qmat(q)
         Iinv = R @ np.diag(model.body_inv_inertia[b]) @ R.T
         state.body_angvel[b] += Iinv @ L
+
+
+def _slerp_into(a: np.ndarray, b: np.ndarray, u: float, out: np.ndarray) -> None:
+    """Per-row slerp of unit quaternions (shortest way)."""
+    d = np.sum(a * b, axis=1)
+    sign = np.where(d < 0, -1.0, 1.0)
+    d = np.minimum(np.abs(d), 1.0)
+    th = np.arccos(d)
+    st = np.sin(th)
+    small = st < 1e-6
+    wa = np.where(small, 1.0 - u, np.sin((1.0 - u) * th) / np.where(small, 1.0, st))
+    wb = np.where(small, u, np.sin(u * th) / np.where(small, 1.0, st)) * sign
+    np.multiply(a, wa[:, None], out=out)
+    out += b * wb[:, None]
+    out /= np.linalg.norm(out, axis=1)[:, None]
 
 
 def _qmat(q):
