@@ -149,9 +149,12 @@ def _distances(lib, f, k, wpos, wrot, h, wi):
     wb = lib.weights.copy()
     if f.support_body[k] >= 0:
         wb[f.support_body[k]] += 1.0
-    dp = np.sqrt(np.sum((wpos - sp[None]) ** 2, axis=-1)) / h
-    dq = 2 * np.arccos(np.minimum(np.abs(np.sum(wrot * sq[None], axis=-1)), 1.0))
-    return np.einsum("swb,w,b->s", dp + 0.5 * dq, wi, wb)
+    d = wpos - sp[None]
+    dp = np.sqrt(np.einsum("swbk,swbk->swb", d, d)) * (1.0 / h)
+    dot = np.abs(np.einsum("swbk,wbk->swb", wrot, sq))
+    np.minimum(dot, 1.0, out=dot)
+    dp += np.arccos(dot)             # 0.5 x the angle 2 acos|q1.q2|
+    return (dp @ wb) @ wi
 
 
 def search(lib, f: SimFeatures, k0: int, k1: int) -> SearchResult:
