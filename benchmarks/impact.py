@@ -68,7 +68,7 @@ def trial(creature, rng, nhits, stats):
         t += int(rng.integers(2, 37))
     p0 = ch.world_positions[0].copy()
     prev = ch.world_rotations.copy()
-    back, worst_turn, minz = None, 0.0, np.inf
+    back, worst_turn, worst_impact, worst_anim, minz = None, 0.0, 0.0, 0.0, np.inf
     last = hits[-1][0]
     for k in range(last + int(2.5 / DT)):
         phys = ch.reacting and ch.response.phase in ("burst", "transition")
@@ -86,8 +86,13 @@ def trial(creature, rng, nhits, stats):
             stats["tick"].append(dt_tick)
         if not (np.all(np.isfinite(ch.world_positions)) and np.all(np.isfinite(ch.world_rotations))):
             return False, "non-finite"
-        if (not phys) or not (ch.reacting and ch.response.phase in ("burst", "transition")):
-            worst_turn = max(worst_turn, float(np.linalg.norm(rotvec_between(prev, ch.world_rotations), axis=1).max()))
+        turn = float(np.linalg.norm(rotvec_between(prev, ch.world_rotations), axis=1).max())
+        if not phys and any(tt == k for tt, _, _ in hits):
+            worst_impact = max(worst_impact, turn)      # the impact tick (includes the hit itself)
+        elif not phys:
+            worst_anim = max(worst_anim, turn)          # animation (the clip played after, resumed)
+        elif not (ch.reacting and ch.response.phase in ("burst", "transition")):
+            worst_turn = max(worst_turn, turn)          # the hand-off back to animation
         prev = ch.world_rotations.copy()
         minz = min(minz, float(ch.world_positions[:, 2].min()))
         if k > last and back is None and not ch.reacting:
@@ -95,8 +100,12 @@ def trial(creature, rng, nhits, stats):
     why = []
     if back is None or back > 2.0:
         why.append(f"not back in 2 s ({back})")
+    if worst_impact > 0.5:
+        why.append(f"impact-tick turn {worst_impact:.2f} rad")
     if worst_turn > 0.5:
-        why.append(f"hand-off turn {worst_turn:.2f} rad")
+        why.append(f"hand-back turn {worst_turn:.2f} rad")
+    if worst_anim > 0.5:
+        why.append(f"animation turn {worst_anim:.2f} rad")
     if minz < -0.01:
         why.append(f"body centre {minz:.3f} m under ground")
     if nhits == 1:
