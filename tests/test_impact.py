@@ -189,3 +189,36 @@ def test_library_of_a_random_creature_is_its_own():
     lib = library_for(c)
     assert lib.frames > 100 and lib.pos.shape[1] == c.nbody
     assert np.all(np.isfinite(lib.pos)) and len(lib.starts) < lib.frames
+
+
+def test_a_crowd_member_reacts_while_the_others_stay_batched():
+    from engine.runtime import Crowd
+
+    def crowd():
+        chars = [_standing("humanoid") for _ in range(3)]
+        for i, ch in enumerate(chars):
+            ch.set_placement(position=(0.0, 2.0 * i, 0.0), teleport=True)
+        return chars, Crowd(chars)
+
+    a, ca = crowd()
+    b, cb = crowd()
+    for ch in a + b:
+        ch.tick(DT)                      # the same history before the crowd ticks
+    ca.tick(DT)
+    cb.tick(DT)
+    prev = a[1].world_rotations.copy()
+    a[1].hit("spine2", (-50.0, 0.0, 0.0))
+    ca.tick(DT)
+    cb.tick(DT)
+    assert a[1].reacting
+    assert np.linalg.norm(rotvec_between(prev, a[1].world_rotations), axis=1).max() < 0.5
+    ended = None
+    for k in range(150):
+        ca.tick(DT)
+        cb.tick(DT)
+        if ended is None and not a[1].reacting:
+            ended = k
+    assert ended is not None and ended * DT < 2.0
+    for i in (0, 2):
+        assert a[i].world_positions.tobytes() == b[i].world_positions.tobytes()
+    assert np.abs(a[1].world_positions[0, :2] - b[1].world_positions[0, :2]).max() > 0.02   # it was pushed

@@ -196,7 +196,7 @@ class ImpactResponse:
         ch = self.char
         if self.phase in ("idle", "blend"):
             # the displayed pose and its finite-difference velocity become the physics state
-            dt = ch._last_dt
+            dt = ch._stack.last_dt
             s = state_from_kinematic(self.model2, ch.world_positions, ch.world_rotations, ch._prev_world_pos,
                                      ch._prev_world_rot, dt)
             _copy_state(self.sim2, s)
@@ -216,7 +216,7 @@ class ImpactResponse:
         self._blend_t = 0.0
         # An instantaneous hit is delivered as a force over one frame, so the joint solver
         # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
-        span = float(duration) if duration > 0.0 else ch._last_dt
+        span = float(duration) if duration > 0.0 else ch._stack.last_dt
         self._contact.append([b, J / span, point, span])
         self._contact_end = duration
         # the servos hold the interrupted clip's pose as it was at the impact (Simulation 1)
@@ -268,6 +268,9 @@ class ImpactResponse:
             kv = t * e
             if t >= p.blend_time:
                 self.phase = "idle"
+                from engine.runtime import _REACTING
+
+                _REACTING.discard(self.char)
             else:
                 anim_pos += kx * self._off_pos + kv * self._off_vel
                 rv = kx * self._off_rot     # rotations: the offset alone (see _start_blend)
