@@ -394,17 +394,6 @@ class ImpactResponse:
         np.copyto(anim_rot, s.body_rot)
 
 
-def _apply_impulse(model, state, b: int, J: np.ndarray, point) -> None:
-    state.body_linvel[b] += J * model.body_inv_mass[b]
-    if point is not None:
-        r = point - state.body_pos[b]
-        L = np.cross(r, J)
-        q = state.body_rot[b]
-        R = _qmat(q)
-        Iinv = R @ np.diag(model.body_inv_inertia[b]) @ R.T
-        state.body_angvel[b] += Iinv @ L
-
-
 def _slerp_into(a: np.ndarray, b: np.ndarray, u: float, out: np.ndarray) -> None:
     """Per-row slerp of unit quaternions (shortest way)."""
     d = np.sum(a * b, axis=1)
@@ -418,13 +407,6 @@ def _slerp_into(a: np.ndarray, b: np.ndarray, u: float, out: np.ndarray) -> None
     np.multiply(a, wa[:, None], out=out)
     out += b * wb[:, None]
     out /= np.linalg.norm(out, axis=1)[:, None]
-
-
-def _qmat(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def _rotate_by_rotvec(rv: np.ndarray, q: np.ndarray) -> None:
