@@ -72,6 +72,16 @@ if [[ ",$extras," == *",dev,"* ]] && ! command -v chromium >/dev/null 2>&1; then
     echo "setup.sh: chromium not found; install it (apt-get install chromium) for the browser tests" >&2
   fi
 fi
+# Tests check glTF exports with real clients: the Khronos glTF-Validator and three.js (npm,
+# into tools/js/node_modules; three.js runs in the headless chromium above).
+if [[ ",$extras," == *",dev,"* ]]; then
+  if command -v npm >/dev/null 2>&1; then
+    (cd tools/js && npm install --no-audit --no-fund --silent) || \
+      echo "setup.sh: could not install gltf-validator/three; the glTF client tests will be skipped" >&2
+  else
+    echo "setup.sh: npm not found; install nodejs and npm for the glTF client tests" >&2
+  fi
+fi
 # Tests open the viewer and the authoring tool in a real window: Debian's Xvfb (a virtual
 # X server) and xauth for xvfb-run.
 if [[ ",$extras," == *",dev,"* ]] && ! command -v xvfb-run >/dev/null 2>&1; then

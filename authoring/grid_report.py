@@ -272,7 +272,11 @@ def _write_csv(path: str, cells: list[dict]) -> None:
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:16px;color:#222;background:#fafafa}
 h1{font-size:20px;margin:0 0 8px} h2{font-size:16px;margin:18px 0 6px}
-table.summary td{padding:2px 10px 2px 0} .num{font-variant-numeric:tabular-nums}
+.num{font-variant-numeric:tabular-nums}
+#summary{display:flex;flex-wrap:wrap;gap:6px;margin:6px 0}
+#summary div{background:#fff;border:1px solid #ddd;border-radius:4px;padding:3px 8px;font-size:12px}
+#summary div b{display:block;font-size:15px}
+.columns{display:flex;gap:24px;align-items:flex-start} .side{max-width:760px}
 table.matrix{border-collapse:collapse;font-size:11px}
 table.matrix th{position:sticky;top:0;background:#fafafa;z-index:1;padding:2px;vertical-align:bottom}
 table.matrix th.col div{writing-mode:vertical-rl;transform:rotate(180deg);white-space:nowrap;max-height:120px}
@@ -318,11 +322,16 @@ def _write_html(out: str, doc: dict, pictures: bool) -> None:
              "<h1>Menagerie validation grid</h1>",
              f"<p><code>{e(doc['command'])}</code> &middot; {e(doc['meta'].get('date', ''))} &middot; commit "
              f"{e(doc['meta'].get('commit', '?'))}</p>",
-             "<table class='summary' id='summary'>"]
-    for key in ("cells", "plays", "not_applicable", "pass", "warn", "fail", "pass_rate", "known_fail", "flips",
-                "nonfinite", "creatures", "seconds", "cells_per_second", "workers"):
-        parts.append(f"<tr><td>{key}</td><td class='num' id='summary-{key}'>{e(str(s.get(key, '')))}</td></tr>")
-    parts.append("</table>")
+             "<div id='summary'>"]
+    for key in ("pass_rate", "plays", "pass", "warn", "fail", "known_fail", "flips", "nonfinite", "not_applicable",
+                "cells", "creatures", "seconds", "cells_per_second", "workers"):
+        parts.append(f"<div>{key.replace('_', ' ')}<b class='num' id='summary-{key}'>{e(str(s.get(key, '')))}</b>"
+                     "</div>")
+    parts.append("</div>")
+    by_metric = s.get("fail_by_metric") or {}
+    if by_metric:
+        parts.append("<p>Failing cells by metric: " + ", ".join(
+            f"{e(m)} {n}" for m, n in sorted(by_metric.items(), key=lambda kv: -kv[1])) + "</p>")
     if s.get("interrupted"):
         parts.append("<p><b>Interrupted:</b> the run was stopped; these are the cells that finished.</p>")
     cmp_ = doc.get("comparison")
@@ -339,14 +348,7 @@ def _write_html(out: str, doc: dict, pictures: bool) -> None:
                                  f"<td>{e(r['variant_id'])}</td><td>{_badge(r['was'])}</td><td>{_badge(r['now'])}"
                                  f"</td><td>{e(r['reason'] or r['was_reason'])}</td></tr>")
                 parts.append("</table>")
-    if s["worst"]:
-        parts.append("<h2>Worst cells</h2><table class='list'><tr><th>creature</th><th>animation</th>"
-                     "<th>variant</th><th>reason</th></tr>")
-        for w in s["worst"]:
-            link = cell_id(w) + ".html"
-            parts.append(f"<tr><td>{e(w['creature'])}</td><td>{e(w['animation'])}</td><td>{e(w['variant_id'])}</td>"
-                         f"<td><a href='cells/{e(link)}'>{e(w['reason'])}</a></td></tr>")
-        parts.append("</table>")
+    parts.append("<div class='columns'><div>")
     parts.append(f"<h2>Matrix</h2><p>Each cell: the pose at its worst frame (the worst variant), framed by its "
                  f"verdict: {_badge(T.PASS)} {_badge(T.WARN)} {_badge(T.FAIL)} {_badge(T.NA)}. Overall pass "
                  f"rate <b id='overall'>{s['pass_rate']}</b>.</p>")
@@ -374,6 +376,16 @@ def _write_html(out: str, doc: dict, pictures: bool) -> None:
             parts.append(f"<td>{inner}</td>")
         parts.append("</tr>")
     parts.append("</table>")
+    parts.append("</div><div class='side'>")
+    if s["worst"]:
+        parts.append("<h2>Worst cells</h2><table class='list'><tr><th>creature</th><th>animation</th>"
+                     "<th>variant</th><th>reason</th></tr>")
+        for w in s["worst"]:
+            link = cell_id(w) + ".html"
+            parts.append(f"<tr><td>{e(w['creature'])}</td><td>{e(w['animation'])}</td><td>{e(w['variant_id'])}</td>"
+                         f"<td><a href='cells/{e(link)}'>{e(w['reason'])}</a></td></tr>")
+        parts.append("</table>")
+    parts.append("</div></div>")
     parts.append("<h2>Thresholds</h2><table class='list'><tr><th>metric</th><th>unit</th><th>warn</th><th>fail</th>"
                  "<th>why</th></tr>")
     for t in doc["thresholds"]:

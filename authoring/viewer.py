@@ -97,10 +97,9 @@ def view_file(path, snapshot=None, *, width: int = 1280, height: int = 720):
     current folder instead (``NAME.png``, or ``NAME_2.png``... if that exists).
     Returns the PNG path, or None after an interactive session.
     A bad file raises ``engine.errors.CreatureError`` naming the file and line."""
-    import engine
     from engine.io.sources import creature_from_file
 
-    creature = creature_from_file(path) if str(path).lower().endswith(".bvh") else engine.load_creature(path)
+    creature = creature_from_file(path)  # a creature file, or a BVH/glTF skeleton through its importer
     scene = sc.Scene(actors=[sc.Actor(creature, label=creature.name)])
     if snapshot is not None:
         return rd.render_png(scene, snapshot, width, height)

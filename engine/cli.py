@@ -7,6 +7,10 @@ module also runs alone (``python -m engine.cli ...``) on machines without the vi
     menagerie creatures list [DIR]               counts per creature
     menagerie creatures generate --seed S --count N --out DIR [--force]
     menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
+    menagerie creatures from-gltf FILE.glb --out FILE.yaml [--skin N] [--caps TABLE.yaml] [--scale K] [--force]
+    menagerie creatures explain FILE             what an imported skeleton's bodies are, and why
+    menagerie bake ANIM.yaml CREATURE... --out DIR [--format glb|gltf|bvh] [--variant V] [--fps 30]
+                                                 the runtime's output as animated glTF or BVH files
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
 Errors a user can cause (bad files, missing paths) print one line naming the fault and
@@ -111,11 +115,98 @@ def cmd_creatures_from_bvh(args: argparse.Namespace) -> int:
         print("menagerie: warning: --scale is now --unit-scale in from-bvh (as in mocap)", file=sys.stderr)
         unit = args.scale if unit is None else unit
     table = load_caps_table(args.caps) if args.caps else None
-    cdef = creature_def_from_bvh(args.file, caps_table=table, scale=unit)
+    rest = args.rest_frame if getattr(args, "rest_frame", None) is not None else "relaxed"
+    cdef = creature_def_from_bvh(args.file, caps_table=table, scale=unit, rest=rest)
     creature = build_creature(cdef)  # validate before writing anything
     write_creature_def(cdef, args.out, overwrite=args.force)
     print(f"wrote {args.out}: {creature!r}")
     return 0
+
+
+def cmd_creatures_from_gltf(args: argparse.Namespace) -> int:
+    from engine.io.bvh_creature import load_caps_table
+    from engine.io.gltf import import_gltf
+    from engine.model import build_creature, write_creature_def
+    from engine.outputs import output_file
+
+    output_file(args.out, args.force, suffixes=(".yaml", ".yml"))
+    table = load_caps_table(args.caps) if args.caps else None
+    imp = import_gltf(args.file, skin=args.skin, caps_table=table, scale=args.scale)
+    creature = build_creature(imp.cdef)
+    try:
+        write_creature_def(imp.cdef, args.out, overwrite=args.force)
+    except FileExistsError as exc:
+        raise MenagerieError(str(exc)) from None
+    for note in imp.notes:
+        print(f"note: {note}")
+    if imp.helpers:
+        print(f"left out {len(imp.helpers)} helper bones that deform nothing: {', '.join(imp.helpers)}")
+    if imp.reattached:
+        print(f"re-attached {len(imp.reattached)} detached chains: {', '.join(imp.reattached)}")
+    if imp.relaxed:
+        print(f"relaxed rest: arms swung down ({', '.join(imp.relaxed)})")
+    print(f"wrote {args.out}: {creature!r}")
+    return 0
+
+
+def cmd_creatures_explain(args: argparse.Namespace) -> int:
+    from engine.io.bvh_creature import load_caps_table
+    from engine.io.sources import explain_creature_source
+
+    table = load_caps_table(args.caps) if args.caps else None
+    print(explain_creature_source(args.file, caps_table=table))
+    return 0
+
+
+def add_gltf_commands(csub) -> None:
+    """``creatures from-gltf`` and ``creatures explain`` (kept apart for easy merging)."""
+    gl = csub.add_parser("from-gltf", help="turn a glTF rig (.glb/.gltf) into a creature file")
+    gl.add_argument("file")
+    gl.add_argument("--out", required=True, help="creature file to write")
+    gl.add_argument("--skin", type=int, default=None, help="skin index (default: the one with most joints)")
+    gl.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
+    gl.add_argument("--unit-scale", "--scale", dest="scale", type=float, default=None, metavar="K",
+                    help="multiply positions (default: 1, or 0.01 for a rig left in centimetres)")
+    gl.add_argument("--force", action="store_true", help="overwrite an existing file")
+    gl.set_defaults(func=cmd_creatures_from_gltf)
+    ex = csub.add_parser("explain", help="what an imported skeleton's bodies are, and why")
+    ex.add_argument("file", help="a .bvh, .glb or .gltf file")
+    ex.add_argument("--caps", help="YAML table of joint-name patterns to capabilities")
+    ex.set_defaults(func=cmd_creatures_explain)
+
+
+def cmd_bake(args: argparse.Namespace) -> int:
+    from engine.io.bake import bake
+    from engine.validation.grid import file_sources
+
+    sources = [s.ref for s in file_sources(args.creatures)]
+    results = bake(sources, args.animation, args.out, fmt=args.format, fps=args.fps, variant=args.variant,
+                   overwrite=args.force, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+    failed = [r for r in results if r.error]
+    for r in results:
+        if r.error:
+            print(f"{r.source}: {r.error.splitlines()[0]}", file=sys.stderr)
+        elif not args.quiet:
+            print(f"wrote {', '.join(r.paths)} ({r.clips} clip{'s' if r.clips != 1 else ''}, {r.seconds:.2f} s)")
+    print(f"baked {len(results) - len(failed)} of {len(results)} creatures into {args.out}")
+    return 2 if failed else 0
+
+
+def add_bake_command(sub) -> None:
+    """``bake`` (kept apart for easy merging)."""
+    bk = sub.add_parser("bake", help="write what the runtime plays as animated glTF or BVH, per creature")
+    bk.add_argument("animation", help="animation file")
+    bk.add_argument("creatures", nargs="+", help="creature files, skeletons (BVH, glTF) or directories")
+    bk.add_argument("--out", required=True, help="output directory")
+    bk.add_argument("--format", default="glb", choices=["glb", "gltf", "bvh"])
+    bk.add_argument("--variant", default=None, help="only this variant id (default: every variant, one clip each)")
+    bk.add_argument("--fps", type=float, default=30.0, help="keys per second (default 30)")
+    bk.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
+    bk.add_argument("--workers", type=int, default=None,
+                    help="LocalCluster worker processes (default: one per core; 0 runs in this process)")
+    bk.add_argument("--force", action="store_true", help="overwrite existing files")
+    bk.add_argument("--quiet", action="store_true", help="no progress bar, only failures and the total")
+    bk.set_defaults(func=cmd_bake)
 
 
 # -- entry point -------------------------------------------------------------------------
@@ -143,7 +234,11 @@ def add_batch_commands(sub) -> None:
                      help="file units to metres (default: auto)")
     bvh.add_argument("--scale", type=float, default=None, help=argparse.SUPPRESS)   # the old name
     bvh.add_argument("--force", action="store_true", help="overwrite an existing file")
+    bvh.add_argument("--rest-frame", type=int, default=None,
+                     help="take the rest pose from this capture frame (default: the relaxed OFFSET pose)")
     bvh.set_defaults(func=cmd_creatures_from_bvh)
+    add_gltf_commands(csub)
+    add_bake_command(sub)
 
     try:
         from engine.mocap_cli import add_mocap_parser

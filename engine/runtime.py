@@ -121,6 +121,10 @@ class _Stack:
         self.char_rot = np.tile(creature.body_rest_rot, (n, 1, 1))
         self.world_pos = self.char_pos.copy()
         self.world_rot = self.char_rot.copy()
+        # impact response: last frame's displayed pose and the last dt (finite differences)
+        self.prev_world_pos = self.world_pos.copy()
+        self.prev_world_rot = self.world_rot.copy()
+        self.last_dt = 1.0 / 60.0
         self.driven = np.zeros((n, nb), np.bool_)
         self.driven[:, 0] = True
         self.jig_err = np.zeros((n, nb, 3))
@@ -152,7 +156,7 @@ class _Stack:
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
                  "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "ik_bad", "stand", "ground",
-                 "ground_set")
+                 "ground_set", "prev_world_pos", "prev_world_rot")
 
     def copy_row(self, dst: int, src: _Stack, row: int) -> None:
         for name in self._PER_CHAR:
@@ -194,6 +198,9 @@ class Character:
         #: The locomotion controller (``engine.gait.GaitController``), made by the first
         #: ``locomote`` call; None while the character has never been asked to move.
         self.gait = None
+        # -- impact response (engine.response.impact) ------------------------------------
+        self.response = None                    #: the ImpactResponse, made by the first hit
+        # -- end impact response ---------------------------------------------------------
 
     # -- views into the stack ----------------------------------------------------------
 
@@ -204,6 +211,8 @@ class Character:
         self.world_rotations = s.world_rot[r]      # (nbody, 4) world, w-first
         self.pose_positions = s.char_pos[r]        # (nbody, 3) character space
         self.pose_rotations = s.char_rot[r]
+        self._prev_world_pos = s.prev_world_pos[r]   # impact response: last frame's pose
+        self._prev_world_rot = s.prev_world_rot[r]
         # One-element views of each slot's clip time, made once (no slicing per frame).
         self._slot_time = [s.player.time[r, k : k + 1] for k in range(self.player.nslot)]
 
@@ -353,6 +362,9 @@ class Character:
     def tick(self, dt: float) -> None:
         """Advance the character by ``dt`` seconds and pose every body."""
         _check_dt(dt)
+        np.copyto(self._prev_world_pos, self.world_positions)   # impact response: the
+        np.copyto(self._prev_world_rot, self.world_rotations)   # finite-difference velocity
+        self._stack.last_dt = dt
         st = self.stages
         if st.player:
             self.player.advance(dt)                     # 1. player: clip times, fades, queue, events
@@ -368,7 +380,29 @@ class Character:
         _solve_character(self)                          # 6. IK (or the rest pose when off)
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
+        if self.response is not None and self.response.phase != "idle":
+            self.response.tick(dt)                      # 9. impact response (engine.response)
         self._frame += 1
+
+    # -- impact response (engine.response.impact) ----------------------------------------
+
+    def hit(self, body, impulse, point=None, duration: float = 0.0) -> None:
+        """Hit ``body`` (name or index) with ``impulse`` (N s, world), at ``point`` (world;
+        None: the body's centre), as a contact lasting ``duration`` s (0: instantaneous).
+        The character is physical from this tick and re-enters animation by itself; a hit
+        during a response re-plans from the current physical state."""
+        if self.response is None:
+            from engine.response.impact import ImpactResponse
+
+            self.response = ImpactResponse(self)
+        self.response.hit(body, impulse, point, duration)
+        _REACTING.add(self)
+
+    @property
+    def reacting(self) -> bool:
+        """Whether an impact response is running (``response.phase``, ``response.clip``)."""
+        return self.response is not None and self.response.phase != "idle"
+    # -- end impact response -------------------------------------------------------------
 
     # -- outputs -----------------------------------------------------------------------
 
@@ -587,6 +621,10 @@ def _inverse_bind(c: Creature) -> np.ndarray:
 
 _INV_BIND: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
+#: Characters whose impact response runs (added by ``hit``, dropped when it ends), so a
+#: crowd ticks responses without a loop over every member.
+_REACTING: weakref.WeakSet = weakref.WeakSet()
+
 
 def quat_to_matrix_batch(q: np.ndarray) -> np.ndarray:
     """(n, 3, 3) rotation matrices of (n, 4) unit quaternions (w, x, y, z)."""
@@ -665,6 +703,9 @@ class _Group:
         s = self.stack
         ref = self.members[0]
         st = ref.stages
+        np.copyto(s.prev_world_pos, s.world_pos)     # impact response: last frame's poses
+        np.copyto(s.prev_world_rot, s.world_rot)
+        s.last_dt = dt
         # 1. player: every clip slot of every member in one kernel
         if st.player:
             advance_arrays(s.player, dt)
@@ -694,6 +735,10 @@ class _Group:
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
+        # 9. impact response: only the members reacting, after the batched stages
+        if _REACTING:
+            for m in [m for m in _REACTING if m._stack is s]:
+                m.response.tick(dt)
 
     def _event_rows(self) -> np.ndarray:
         """Rows of the members playing clips with key events (rebuilt when clips change)."""

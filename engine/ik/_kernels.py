@@ -610,7 +610,20 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
+def _share(w, inv_n):
+    """The pull per pin that adds up to ``w`` over the 1 / ``inv_n`` pins of a spine solve:
+    a goal of weight w pulled w of the way at every pin would end 1 - (1 - w)^n of the
+    way (weight 0.02 over 15 pins: 26%), so a fade would move the spine most of its way
+    in its first frames and snap at its last. Pulled 1 - (1 - w)^(1/n) each time, it
+    ends about w of the way: the pose follows the weight. (The limb phase blends its
+    targets by weight instead, ``_limb_phase``.)"""
+    if w <= 0.0 or w >= 1.0:
+        return w
+    return 1.0 - math.pow(1.0 - w, inv_n)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first, inv_n):
     # The helpers called inside iteration loops take the plan arrays they read, not the
     # plan: an inlined ``P`` argument is a copy of 92 arrays (a reference count each).
     for d in range(dg_body.shape[0]):
@@ -619,7 +632,7 @@ def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target
         if w <= 0.0 or (not first and w >= 1.0):
             continue
         i = dg_spine_particle[d]
-        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(dg_target, d), w))
+        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(dg_target, d), _share(w, inv_n)))
         if first:
             sp_inv[i] = min(sp_inv[i], 1.0 - w)
 
@@ -647,14 +660,16 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
         if i < 0:
             continue
         w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
+        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, 1.0 / (1 + int(prm[P_SPINE_OUTER])
+                                                                                   * int(prm[P_SPINE_INNER])))))
         sp_inv[i] = 1.0 - w
     dg_body, dg_spine_particle = P.dg_body, P.dg_spine_particle
-    _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True)
-    buckle = 0.0
-    nsc = P.sc_a.shape[0]
     n_outer = int(prm[P_SPINE_OUTER])
     n_inner = int(prm[P_SPINE_INNER])
+    inv_n = 1.0 / (1 + n_outer * n_inner)        # pins per solve: the start and every sweep
+    _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True, inv_n)
+    buckle = 0.0
+    nsc = P.sc_a.shape[0]
     anti = prm[P_ANTI_BUCKLING] > 0.0
     for _outer in range(n_outer):
         for _inner in range(n_inner):
@@ -691,8 +706,9 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                 if i >= 0:
                     w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                     if 0.0 < w < 1.0:
-                        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), w))
-            _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False)
+                        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, inv_n)))
+            _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False,
+                           inv_n)
         if anti:
             b = smoothstep((_buckle_metric(P.bp_c1, P.bp_c2, P.bp_sign1, P.bp_rest_angle, P.sc_a, P.sc_b, P.sp_rest,
                                            root_rot, sp_pos) - prm[P_BUCKLE_ON])
@@ -897,6 +913,22 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
         if P.goal_lpj[gi] >= 0:
             set3(lg_jtarget, gi, soft_reach(v3(goal_joint, gi), v3(lp_pos, P.goal_lproot[gi]), P.goal_reachj[gi],
                                             P.params[P_SOFT_REACH]))
+    # A goal of weight w < 1 pins its particle w of the way from where the limb starts
+    # (carried by the spine, at rest) to its target: the pose follows the weight, and a
+    # goal fading to 0 hands the limb back to its rest pose without a step.
+    for gi in range(P.goal_body.shape[0]):
+        i = P.goal_lp[gi]
+        if i < 0:
+            continue
+        b = P.goal_body[gi]
+        w = min(max(goal_pos_w[b], 0.0), 1.0)
+        if 0.0 < w < 1.0:
+            set3(lg_target, gi, vlerp(v3(lp_pos, i), v3(lg_target, gi), w))
+        j = P.goal_lpj[gi]
+        if j >= 0:
+            wj = min(w, min(max(goal_rot_w[b], 0.0), 1.0))
+            if 0.0 < wj < 1.0:
+                set3(lg_jtarget, gi, vlerp(v3(lp_pos, j), v3(lg_jtarget, gi), wj))
     # Aim preconditioner: rotate and scale each group about its pivot so the weighted
     # mean of its goal particles lands on the weighted mean of their goals.
     for g in range(P.ag_pivot.shape[0]):
@@ -919,7 +951,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
                 pc = v3(lp_pos, P.goal_lp[gi])
                 gt = v3(lg_target, gi)
             cur = vadd(cur, vscale(pc, w))
-            tgt = vadd(tgt, vscale(vlerp(pc, gt, w), w))
+            tgt = vadd(tgt, vscale(gt, w))
             wsum += w
         if wsum <= 0.0:
             continue
@@ -989,6 +1021,7 @@ def _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
             wr = min(max(goal_rot_w[b], 0.0), 1.0)
             k = kt + wr * (k - kt)
         k = min(k, kmax)
+        k = 1.0 + min(max(goal_pos_w[b], 0.0), 1.0) * (k - 1.0)    # a fading goal stretches less
         if k <= 1.0 + 1e-12:
             continue
         for j in range(P.ag_moved_adr[g], P.ag_moved_adr[g] + P.ag_moved_num[g]):
@@ -1033,8 +1066,10 @@ def _limb_target(goal_lpj, goal_body, goal_lproot, goal_reach, soft, goal_pos, g
 @njit(cache=True, _nrt=False, inline="always")
 def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos,
                     lp_inv, first):
-    """Pull goal particles toward their targets by the goal weight (the first time also
-    making them heavy in proportion). A body with a tip particle has its tip pinned at
+    """Pin goal particles at their targets (``_limb_phase`` blends a target by its goal's
+    weight from where the limb starts) and make them immovable by the constraints; the
+    inner sweeps (``first`` False) leave them there, the outer projections move them and
+    they are pinned again. A body with a tip particle has its tip pinned at
     the position goal and, as far as it has a rotation goal, its joint at the 6-DOF goal
     converted to the joint (4.3.1); without a rotation goal the joint is free and the tip
     decides the body's direction, so position-only goals are met exactly."""
@@ -1044,17 +1079,15 @@ def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_ro
             continue
         b = goal_body[gi]
         w = min(max(goal_pos_w[b], 0.0), 1.0)
-        if w > 0.0 and (first or w < 1.0):
-            set3(lp_pos, i, vlerp(v3(lp_pos, i), v3(lg_target, gi), w))
-        if first:
-            lp_inv[i] = 1.0 - w
+        if w > 0.0 and first:
+            set3(lp_pos, i, v3(lg_target, gi))
+            lp_inv[i] = 0.0
         j = goal_lpj[gi]
         if j >= 0 and lp_parent[j] >= 0:
-            wj = w * min(max(goal_rot_w[b], 0.0), 1.0)
-            if wj > 0.0 and (first or wj < 1.0):
-                set3(lp_pos, j, vlerp(v3(lp_pos, j), v3(lg_jtarget, gi), wj))
-            if first:
-                lp_inv[j] = 1.0 - wj
+            wj = min(w, min(max(goal_rot_w[b], 0.0), 1.0))
+            if wj > 0.0 and first:
+                set3(lp_pos, j, v3(lg_jtarget, gi))
+                lp_inv[j] = 0.0
 
 
 @njit(cache=True, _nrt=False, inline="always")

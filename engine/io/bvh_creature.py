@@ -182,12 +182,17 @@ def _strip_namespace(name: str) -> str:
 
 
 def joint_caps(clip: BvhClip, caps_table: dict | None = None) -> list[list[str]]:
-    """Capabilities of every joint of ``clip`` (see the module docstring for the rules)."""
+    """Capabilities of every joint of ``clip`` from its names alone (see the module docstring)."""
+    return caps_from_names(clip.joint_names, clip.joint_parent, caps_table)
+
+
+def caps_from_names(names, parent, caps_table: dict | None = None) -> list[list[str]]:
+    """Capabilities from joint names (``parent`` parents first, -1 for the root)."""
     table = (_compile_table(caps_table, "caps_table") if caps_table else []) + _DEFAULT_COMPILED
-    n = clip.njoint
-    parent = clip.joint_parent
+    n = len(names)
+    parent = np.asarray(parent)
     caps: list[list[str] | None] = []
-    for name in clip.joint_names:
+    for name in names:
         short = _strip_namespace(name)
         caps.append(next((list(c) for rx, c in table if rx.fullmatch(short)), None))
 
@@ -363,7 +368,8 @@ def _rest_boxes(clip: BvhClip, scale: float):
 
 
 def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
-                          scale: float | None = None, name: str | None = None) -> CreatureDef:
+                          scale: float | None = None, name: str | None = None,
+                          caps_from: str = "shape", rest: str | int = "relaxed") -> CreatureDef:
     """A ``CreatureDef`` for a BVH skeleton (a ``BvhClip`` or a file path).
 
     Args:
@@ -371,19 +377,60 @@ def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table:
             (e.g. from ``load_caps_table``).
         scale: file units -> metres; None picks the unit with ``engine.io.bvh.auto_scale``.
         name: the creature's name; default the file's stem (or ``bvh_creature``).
+        caps_from: ``"shape"`` (``engine.model.shape_caps``: the rest pose first, names as a
+            hint, a user's ``caps_table`` last) or ``"names"`` (the name table alone).
+        rest: ``"relaxed"`` swings T-pose arms down (``engine.model.rest_pose``) so
+            rest-relative channels act as on the library humanoid; ``"file"`` keeps the
+            OFFSET pose; a frame number takes the capture's pose at that frame (capabilities
+            still come from the OFFSET pose, where the skeleton is symmetric).
 
     The definition is validated by building it once, so a caps table that breaks the spine
     chain fails here with ``CreatureError`` naming the BVH file and the joint's line.
     """
+    return creature_def_from_bvh_explained(clip_or_path, caps_table, scale, name, caps_from, rest)[0]
+
+
+def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, name=None, caps_from="shape",
+                                    rest="relaxed"):
+    """``creature_def_from_bvh`` and the reason for each body's capabilities."""
+    from engine.model.shape_caps import find_caps
+
     clip = clip_or_path if isinstance(clip_or_path, BvhClip) else load_bvh(clip_or_path)
     scale, scale_note = _resolve_scale(clip, scale)
-    caps = joint_caps(clip, caps_table)
     joint_pos, centre, rot, half = _rest_boxes(clip, scale)
 
     # Stand on the ground, root above the origin.
     shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rot, half)])
     joint_pos = joint_pos + shift
     centre = centre + shift
+    _, end_file = clip.rest_positions()
+    tip = to_menagerie_axes(end_file, scale) + shift
+    caps, reasons = find_caps(clip.joint_names, clip.joint_parent, joint_pos, centre, rot, half,
+                              caps_table=caps_table, mode=caps_from, tip=tip)
+    if isinstance(rest, int) and not isinstance(rest, bool):
+        # A chosen capture frame as the rest: every body where the capture has it at that
+        # frame (bvh_body_poses), then on the ground with the root joint above the origin.
+        if not (0 <= rest < clip.nframe):
+            raise DataError(f"rest frame {rest} is outside the capture's 0..{clip.nframe - 1}", path=clip.path,
+                            field="rest_frame")
+        body_pos, body_rot = bvh_body_poses(clip, scale=scale, frames=[rest])
+        world_pos, _ = clip.forward_kinematics([rest])
+        joint_pos = to_menagerie_axes(world_pos, scale)[0]
+        centre, rot = body_pos[0], body_rot[0]
+        shift = np.array([-joint_pos[0, 0], -joint_pos[0, 1], -_box_min_z(centre, rot, half)])
+        joint_pos = joint_pos + shift
+        centre = centre + shift
+        for j in range(len(reasons)):
+            reasons[j] += f"; rest from capture frame {rest}" if j == 0 else ""
+    elif rest == "relaxed":
+        from engine.model.rest_pose import relax_arms
+
+        joint_pos, centre, rot, _, turned = relax_arms(clip.joint_parent, caps, joint_pos, centre, rot)
+        for g, s, ang in turned:
+            reasons[g] += f"; arm swung down at {clip.joint_names[s]} ({ang:.0f} deg from hanging)"
+    elif rest != "file":
+        raise DataError(f"rest must be 'relaxed', 'file' or a frame number, got {rest!r}", path=clip.path,
+                        field="rest")
 
     if name is None:
         name = os.path.splitext(os.path.basename(clip.path))[0] if clip.path else "bvh_creature"
@@ -404,13 +451,14 @@ def creature_def_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table:
     cdef = CreatureDef(name=name, description=f"from {source}: {clip.njoint} joints, {scale_note}",
                        bodies=bodies, path=clip.path)
     build_creature(cdef)  # validate now, with the BVH file and joint lines in any error
-    return cdef
+    return cdef, reasons
 
 
 def creature_from_bvh(clip_or_path: BvhClip | str | os.PathLike, caps_table: dict | None = None,
-                      scale: float | None = None, name: str | None = None) -> Creature:
+                      scale: float | None = None, name: str | None = None, rest: str | int = "relaxed") -> Creature:
     """The built ``Creature`` for a BVH skeleton; arguments as ``creature_def_from_bvh``."""
-    return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name))
+    return build_creature(creature_def_from_bvh(clip_or_path, caps_table=caps_table, scale=scale, name=name,
+                                                rest=rest))
 
 
 def bvh_body_poses(clip: BvhClip, scale: float | None = None, frames=None) -> tuple[np.ndarray, np.ndarray]:

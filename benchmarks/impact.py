@@ -1,0 +1,221 @@
+"""Impact response: search and decision time, per-tick cost during a response, success
+of random hits (one, two and five in series) on library and random creatures.
+
+    .venv/bin/python benchmarks/impact.py [--library 6] [--random 5] [--hits 4] [--seed 0]
+
+A response succeeds when the output stays finite, the character is back on animation
+(``reacting`` False) within 2 s after the last hit, the hand-off ticks (to physics, back
+to animation) turn no body more than 0.5 rad, no body centre goes more than 1 cm under
+the ground, and for hits that move the root more than 2% of the height its ground-plane
+displacement is within 60 degrees of the impulse. Hits: a random body, a horizontal
+direction, 0.2-2.5 m/s worth of the whole creature's mass (a tap to a knock-down).
+Series: 2 and 5 hits 30-600 ms apart. Medians and p99 over all hits. Ends with one JSON
+line (keys as issue 13).
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import numpy as np  # noqa: E402
+
+import engine  # noqa: E402
+from engine.model import build_creature, random_creature_def  # noqa: E402
+from engine.physics.world import rotvec_between  # noqa: E402
+from engine.response import search as S  # noqa: E402
+from engine.response.impact import ImpactParams, _models  # noqa: E402
+from engine.response.library import library_for  # noqa: E402
+from engine.runtime import Character  # noqa: E402
+
+DT = 1 / 60
+IDLE = engine.load_animation(os.path.join(ROOT, "animations", "idle_breathe.yaml"))
+
+
+def _timed(resp, name, log):
+    f = getattr(resp, name)
+
+    def wrap(*a, **k):
+        t = time.perf_counter()
+        out = f(*a, **k)
+        log.append(time.perf_counter() - t)
+        return out
+    setattr(resp, name, wrap)
+
+
+def trial(creature, rng, nhits, stats):
+    ch = Character(creature)
+    try:
+        ch.play(IDLE)
+    except engine.MenagerieError:
+        pass
+    for _ in range(10):
+        ch.tick(DT)
+    mass = _models(creature, ImpactParams())[1].total_mass
+    hits, t = [], 0
+    for _ in range(nhits):
+        d = rng.normal(size=2)
+        d /= np.linalg.norm(d)
+        J = np.array([d[0], d[1], 0.0]) * rng.uniform(0.2, 2.5) * mass
+        hits.append((t, int(rng.integers(creature.nbody)), J))
+        t += int(rng.integers(2, 37))
+    p0 = ch.world_positions[0].copy()
+    prev = ch.world_rotations.copy()
+    back, worst_turn, worst_impact, worst_anim, minz = None, 0.0, 0.0, 0.0, np.inf
+    last = hits[-1][0]
+    for k in range(last + int(2.5 / DT)):
+        phys = ch.reacting and ch.response.phase in ("burst", "transition")
+        for tt, b, J in hits:
+            if tt == k:
+                ch.hit(b, J)
+                if len(stats["wrapped"]) == 0 or stats["wrapped"][-1] is not ch.response:
+                    _timed(ch.response, "_advance_sim1", stats["sim1"])
+                    _timed(ch.response, "_plan", stats["plan"])
+                    stats["wrapped"].append(ch.response)
+        t0 = time.perf_counter()
+        ch.tick(DT)
+        dt_tick = time.perf_counter() - t0
+        if ch.reacting:
+            stats["tick"].append(dt_tick)
+        if not (np.all(np.isfinite(ch.world_positions)) and np.all(np.isfinite(ch.world_rotations))):
+            return False, "non-finite"
+        turn = float(np.linalg.norm(rotvec_between(prev, ch.world_rotations), axis=1).max())
+        if not phys and any(tt == k for tt, _, _ in hits):
+            worst_impact = max(worst_impact, turn)      # the impact tick (includes the hit itself)
+        elif not phys:
+            worst_anim = max(worst_anim, turn)          # animation (the clip played after, resumed)
+        elif not (ch.reacting and ch.response.phase in ("burst", "transition")):
+            worst_turn = max(worst_turn, turn)          # the hand-off back to animation
+        prev = ch.world_rotations.copy()
+        minz = min(minz, float(ch.world_positions[:, 2].min()))
+        if k > last and back is None and not ch.reacting:
+            back = (k - last) * DT
+    why = []
+    if back is None or back > 2.0:
+        why.append(f"not back in 2 s ({back})")
+    if worst_impact > 0.5:
+        why.append(f"impact-tick turn {worst_impact:.2f} rad")
+    if worst_turn > 0.5:
+        why.append(f"hand-back turn {worst_turn:.2f} rad")
+    if worst_anim > 0.5:
+        why.append(f"animation turn {worst_anim:.2f} rad")
+    if minz < -0.01:
+        why.append(f"body centre {minz:.3f} m under ground")
+    if nhits == 1:
+        disp = (ch.world_positions[0] - p0)[:2]
+        J = hits[0][2][:2]
+        if np.linalg.norm(disp) > 0.02 * creature.height:
+            cos = disp @ J / (np.linalg.norm(disp) * np.linalg.norm(J))
+            if cos < 0.5:
+                why.append(f"root moved {np.degrees(np.arccos(cos)):.0f} deg off the hit")
+    return (not why), "; ".join(why)
+
+
+def search_scaling(lib, feats):
+    out = {}
+    for target in (1000, 10000, 100000):
+        reps = max(1, int(np.ceil(target / lib.frames)))
+        class L:  # noqa: N801 - a tiled view of the library
+            pass
+        big = L()
+        for name in ("creature", "rate", "window", "weights"):
+            setattr(big, name, getattr(lib, name))
+        big.pos = np.tile(lib.pos, (reps, 1, 1))[:target]
+        big.rot = np.tile(lib.rot, (reps, 1, 1))[:target]
+        big.clip_of = (np.arange(reps)[:, None] * 1000 + lib.clip_of[None]).reshape(-1)[:target]
+        big.time = np.tile(lib.time, reps)[:target]
+        big.valid = np.tile(lib.valid, reps)[:target]
+        big.yaw = np.tile(lib.yaw, reps)[:target]
+        big.xy = np.tile(lib.xy, (reps, 1))[:target]
+        n_st = int(len(lib.starts) * target / lib.frames)
+        big.starts = np.concatenate([lib.starts + r * lib.frames for r in range(reps)])[:max(n_st, 1)]
+        big.starts = big.starts[big.starts < target]
+        big.win_pos, big.win_rot = S.library_windows(big, big.starts)
+        big.frames = target
+        ts = []
+        for _ in range(5):
+            t = time.perf_counter()
+            S.search(big, feats, 3, 30)
+            ts.append(time.perf_counter() - t)
+        out[str(target)] = round(1e3 * float(np.median(ts)), 2)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--library", type=int, default=6, help="library creatures (first N by name)")
+    ap.add_argument("--random", type=int, default=5, help="random creatures (seeds 0..N-1)")
+    ap.add_argument("--hits", type=int, default=4, help="single hits per creature")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    rng = np.random.default_rng(args.seed)
+    paths = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))[: args.library]
+    creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s))
+                                                           for s in range(args.random)]
+    hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
+    t = time.perf_counter()
+    lib = library_for(hum)
+    print(f"humanoid library: {lib.frames} frames, {len(lib.starts)} unique starts, {len(lib.clips)} clips, "
+          f"built in {time.perf_counter() - t:.2f} s")
+    results = {1: [], 2: [], 5: []}
+    stats = {"sim1": [], "plan": [], "tick": [], "wrapped": []}
+    failures = []
+    for c in creatures:
+        library_for(c)
+        for n, count in ((1, args.hits), (2, max(1, args.hits // 2)), (5, max(1, args.hits // 4))):
+            for _ in range(count):
+                ok, why = trial(c, rng, n, stats)
+                results[n].append(ok)
+                if not ok:
+                    failures.append(f"{c.name} x{n}: {why}")
+        print(f"  {c.name}: single {np.mean(results[1]):.2f} so far", flush=True)
+    # search alone, on the humanoid, from a real Simulation 1
+    ch = Character(hum)
+    ch.play(IDLE)
+    for _ in range(5):
+        ch.tick(DT)
+    ch.hit("spine2", (-60.0, 0, 0))
+    for _ in range(12):
+        ch.tick(DT)
+    r = ch.response
+    feats = S.window_features(hum, r._sim1_pos[: r._sim1_count], r._sim1_rot[: r._sim1_count])
+    ts = []
+    for _ in range(30):
+        t = time.perf_counter()
+        S.search(lib, feats, 6, 30)
+        ts.append(time.perf_counter() - t)
+    scaling = search_scaling(lib, feats)
+    # decision = Simulation 1 slices + search, per hit (the plan includes the search)
+    nplan = len(stats["plan"])
+    sim1 = np.array(stats["sim1"])
+    dec_per_hit = (sim1.sum() / max(nplan, 1)) + np.array(stats["plan"]) if nplan else np.zeros(1)
+    out = dict(
+        library_frames=lib.frames, unique_starts=int(len(lib.starts)),
+        search_ms_median=round(1e3 * float(np.median(ts)), 2),
+        search_ms_p99=round(1e3 * float(np.percentile(ts, 99)), 2),
+        decision_ms_median=round(1e3 * float(np.median(dec_per_hit)), 2),
+        decision_ms_p99=round(1e3 * float(np.percentile(dec_per_hit, 99)), 2),
+        sim1_slice_ms_max=round(1e3 * float(sim1.max()), 2) if sim1.size else 0.0,
+        tick_ms_median_during_response=round(1e3 * float(np.median(stats["tick"])), 2),
+        max_tick_ms_during_response=round(1e3 * float(np.max(stats["tick"])), 2),
+        success_rate=round(float(np.mean(results[1])), 3), train2_success_rate=round(float(np.mean(results[2])), 3),
+        train5_success_rate=round(float(np.mean(results[5])), 3), creatures=len(creatures),
+        hits=int(len(results[1]) + 2 * len(results[2]) + 5 * len(results[5])),
+        search_ms_by_library_frames=scaling, paper_mode_s=None,
+    )
+    print("failures:")
+    for f in failures:
+        print("  " + f)
+    print("search ms by library frames:", scaling)
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,130 @@
+"""A relaxed standing rest pose for skeletons captured or rigged in a T- or A-pose.
+
+Rest-relative animation channels (Hecker et al. 2008, section 2: a channel's goal is
+specialized from the body's rest frame) assume the library's rest: arms hanging at the
+sides. An imported human in a T-pose would reach out sideways instead (``pick_up_rock``
+put a capture's hand goal on the ground 0.6 m out at its side). ``relax_arms`` swings each
+arm down about its shoulder:
+
+* An **arm** is the chain of limb bodies from where it leaves the spine to its grasper.
+* Its **shoulder** is the joint on that chain lying ``SHOULDER_FRACTION`` of the chain's
+  length from the grasper (measured along the joints), so a clavicle stays where it is
+  (clavicle ~ 25 % of a human arm chain) and a chain without one turns at its first joint.
+* An arm whose shoulder-to-grasper direction is more than ``RELAX_MIN_ANGLE`` from
+  straight down is turned, with everything below the shoulder, by the shortest rotation
+  that points it down and ``SPLAY`` outward (hands clear of the hips). An arm that would
+  then reach within 2 % of the height of the ground is left as it is.
+
+The result is the creature's rest: positions, rotations and joints of the bodies below each
+shoulder change, their shapes do not (a rigid turn of each arm). ``rest_delta`` gives the
+world rotation applied to each body (identity elsewhere), so an exporter can return to the
+file's own bind pose.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Where an arm turns: this fraction of its chain length from the grasper.
+SHOULDER_FRACTION = 0.78
+#: Arms within this angle of straight down (radians) are left as they are.
+RELAX_MIN_ANGLE = np.radians(35.0)
+#: The hanging arm's outward tilt (radians) from straight down.
+SPLAY = np.radians(8.0)
+
+
+def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Shortest rotation (w, x, y, z) taking unit vector a onto unit vector b."""
+    c = float(np.dot(a, b))
+    axis = np.cross(a, b)
+    if c < -1.0 + 1e-12:  # opposite: any perpendicular axis
+        perp = np.cross(a, [1.0, 0.0, 0.0])
+        if np.linalg.norm(perp) < 1e-6:
+            perp = np.cross(a, [0.0, 1.0, 0.0])
+        perp /= np.linalg.norm(perp)
+        return np.array([0.0, *perp])
+    q = np.array([1.0 + c, *axis])
+    return q / np.linalg.norm(q)
+
+
+def _qmul(a, b):
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
+
+
+def _qrot(q, v):
+    u = q[1:]
+    t = 2.0 * np.cross(u, v)
+    return v + q[0] * t + np.cross(u, t)
+
+
+def relax_arms(parent, caps, joint, pos, rot):
+    """Swing T-/A-pose arms down (see the module docstring).
+
+    Args:
+        parent: (n,) parents first, -1 for the root.
+        caps: list of capability-name lists per body.
+        joint, pos: (n, 3) joint points and box centres; rot: (n, 4) box rotations (w, x, y, z).
+
+    Returns:
+        (joint, pos, rot, rest_delta, turned): new arrays, the world rotation applied to
+        each body (n, 4), and a list of (grasper index, shoulder index, angle in degrees).
+    """
+    parent = np.asarray(parent)
+    n = len(parent)
+    joint = np.array(joint, float)
+    pos = np.array(pos, float)
+    rot = np.array(rot, float)
+    delta = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    children = [[] for _ in range(n)]
+    for j in range(1, n):
+        if parent[j] >= 0:
+            children[parent[j]].append(j)
+    ground = 0.0
+    height = float(max(joint[:, 2].max(), pos[:, 2].max()) - ground)
+    turned = []
+    for g in range(n):
+        if "grasper" not in caps[g] or "spine" in caps[g]:
+            continue
+        path = [g]
+        while parent[path[-1]] >= 0 and "spine" not in caps[parent[path[-1]]]:
+            path.append(int(parent[path[-1]]))
+        path.reverse()  # chain start ... grasper
+        if len(path) < 2:
+            continue
+        along = np.zeros(len(path))  # distance along the joints to the grasper
+        for i in range(len(path) - 2, -1, -1):
+            along[i] = along[i + 1] + float(np.linalg.norm(joint[path[i + 1]] - joint[path[i]]))
+        total = along[0]
+        if total <= 0:
+            continue
+        k = int(np.argmin(np.abs(along[:-1] / total - SHOULDER_FRACTION)))
+        s = path[k]
+        d = joint[g] - joint[s]
+        length = float(np.linalg.norm(d))
+        if length <= 1e-9:
+            continue
+        d /= length
+        angle = float(np.arccos(np.clip(-d[2], -1.0, 1.0)))
+        if angle <= RELAX_MIN_ANGLE:
+            continue
+        side = np.sign(joint[s, 1] - joint[0, 1]) or 1.0
+        target = np.array([0.0, side * np.sin(SPLAY), -np.cos(SPLAY)])
+        # Keep the grasper (and its box) above the ground.
+        reach = float(np.max([np.linalg.norm(c - joint[s]) for c in (pos[g], joint[g])]))
+        if joint[s, 2] - reach * np.cos(SPLAY) < ground + 0.02 * height:
+            continue
+        q = _quat_between(d, target)
+        stack = [s]
+        while stack:
+            b = stack.pop()
+            joint[b] = joint[s] + _qrot(q, joint[b] - joint[s])
+            pos[b] = joint[s] + _qrot(q, pos[b] - joint[s])
+            rot[b] = _qmul(q, rot[b])
+            delta[b] = _qmul(q, delta[b])
+            stack.extend(children[b])
+        turned.append((g, s, float(np.degrees(angle))))
+    rot /= np.linalg.norm(rot, axis=1, keepdims=True)
+    return joint, pos, rot, delta, turned

@@ -1,0 +1,425 @@
+"""Impact response (Zordan, Majkowska, Chiu, Fast 2005), causal and per frame.
+
+A hit turns the character physical for a short burst, a lookahead simulation finds where
+in the creature's motion library to re-enter, PD servos steer the live simulation toward
+that clip, and an inertialized blend hands the pose back to animation.
+
+    char.hit("hand_l", impulse=(0, 40, 0))      # N s, world space
+    char.reacting, char.response.phase, char.response.clip
+
+Phases (``ImpactResponse.phase``):
+    ``burst``       from the impact tick: the runtime's pose and finite-difference
+                    velocities became the physics state (``state_from_kinematic``, no
+                    pop); the servos hold the interrupted clip (it keeps playing
+                    underneath); Simulation 1 (the lookahead) runs ahead in slices.
+    ``transition``  after the reaction delay: the search has chosen a clip, time and root
+                    alignment; the found clip is faded in on the player (the paper's
+                    ease-in/out slerp of theta_d) and the servos track it.
+    ``blend``       at the match time: animation again, plus the physics-minus-animation
+                    offset of every body decaying as a critically damped spring.
+    ``idle``        nothing running (``reacting`` is False).
+
+Choices where the paper is silent (see ``../shared/research/impact.md`` 1.9):
+    * Simulation 1 is *active-holding*, not passive: the servos hold the pose frozen at the
+      impact (the lookahead cannot see the future clip). A fully passive ragdoll folds on
+      every tap, so every search would find lying frames; holding keeps taps upright and
+      still lets heavy hits knock the body over. Friction 1.0 (paper section 5).
+    * Simulation 2 runs live at friction 0.5 with the inertia-scaled PD servos of
+      ``engine.physics`` (kp = (2 pi f)^2, kv = 2 zeta 2 pi f; one gain pair for all
+      creatures, mass-normalized, like the paper's single hand-picked pair).
+    * Simulation 1 uses a coarser substep (1/240 s) than Simulation 2 (1/480 s).
+    * The paper's final blend interpolates Simulation 2 into the clip and needs Simulation
+      2's *end* before its first frame. Here the hand-off is causal: at the match time the
+      offset (position, rotation and their velocities) between the physical pose and the
+      animated pose is taken once and decays as x(t) = (x0 + (v0 + w x0) t) e^(-w t), so
+      the displayed pose and its velocity are continuous at the hand-off and nothing has to
+      be simulated ahead of display.
+    * Window: 6 frames at 30 Hz (0.2 s); weights in ``engine.response.search``.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.errors import MenagerieError
+from engine.physics import (
+    DEFAULT_FOOT,
+    ContactSettings,
+    CreatureBodyOptions,
+    WorldSettings,
+    model_from_creatures,
+    servo_targets_from_pose,
+    state_from_kinematic,
+    step,
+)
+from engine.physics.world import PhysicsState, rotvec_between
+from engine.response.library import MotionLibrary, library_for
+from engine.response.search import SearchResult, search, window_features
+
+PHASES = ("idle", "burst", "transition", "blend")
+
+
+class ImpactError(MenagerieError):
+    """A hit that cannot be applied (unknown body, bad impulse); nothing is applied."""
+
+
+@dataclass(frozen=True)
+class ImpactParams:
+    servo_hz: float = 5.0            # PD stiffness as a frequency (Hz), every joint
+    servo_zeta: float = 1.0          # PD damping ratio
+    substep: float = 1.0 / 480.0     # Simulation 2 substep, s
+    lookahead_substep: float = 1.0 / 240.0   # Simulation 1 substep, s (coarser)
+    reaction_delay: float = 0.15     # s before theta_d leaves the interrupted clip (paper: 0.1-0.2)
+    match_min: float = 0.1           # earliest match after the impact, s (paper section 5)
+    match_max: float = 1.0           # latest match after the impact, s
+    contact_push: float = 0.25       # the earliest match waits for contact to end, up to this, s
+    blend_omega: float = 12.0        # 1/s of the hand-off's critically damped decay (~0.4 s to 1%)
+    blend_time: float = 0.5          # s after the hand-off the offset is dropped (e^-6 of it left)
+    sim2_mu: float = 0.5             # foot friction, Simulation 2 (paper section 5)
+    sim1_mu: float = 1.0             # foot friction, Simulation 1
+    max_speed: float = 60.0          # an impulse giving the whole creature more than this (m/s) is absurd
+
+
+_MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _models(creature, p: ImpactParams):
+    """(Simulation 1 model, Simulation 2 model) of a creature, built once."""
+    key = (p.servo_hz, p.servo_zeta, p.sim1_mu, p.sim2_mu)
+    per = _MODELS.setdefault(creature, {})
+    hit = per.get(key)
+    if hit is None:
+        # Leaves lighter than 1% of the creature (eyes, ears, a jaw, fingertips) ride locked
+        # on their parents: their tiny inertia lets a hit spin them tens of rad/s, and they
+        # carry nothing of the reaction.
+        vol = np.prod(np.maximum(np.asarray(creature.body_extent, float), 1e-6), axis=1)
+        has_child = np.zeros(creature.nbody, bool)
+        has_child[[int(q) for q in creature.body_parent if q >= 0]] = True
+        locked = tuple(creature.body_names[b] for b in range(1, creature.nbody)
+                       if not has_child[b] and vol[b] < 0.01 * vol.sum())
+        opts = CreatureBodyOptions(servo_hz=p.servo_hz, servo_zeta=p.servo_zeta, locked=locked)
+        out = []
+        for mu in (p.sim1_mu, p.sim2_mu):
+            foot = ContactSettings(hz=DEFAULT_FOOT.hz, zeta=DEFAULT_FOOT.zeta, mu=mu, spin_mu=DEFAULT_FOOT.spin_mu)
+            out.append(model_from_creatures(creature, options=opts, settings=WorldSettings(foot=foot)))
+        hit = per[key] = tuple(out)
+    return hit
+
+
+def _copy_state(dst: PhysicsState, src: PhysicsState) -> None:
+    for a, b in zip(dst.arrays, src.arrays, strict=True):
+        np.copyto(a, b)
+
+
+class ImpactResponse:
+    """The impact response of one Character (made by its first ``hit``)."""
+
+    def __init__(self, char, params: ImpactParams | None = None, library: MotionLibrary | None = None) -> None:
+        self.char = char
+        self.params = p = params or ImpactParams()
+        c = char.creature
+        self.model1, self.model2 = _models(c, p)
+        self.sim2 = PhysicsState(self.model2)
+        self.sim1 = PhysicsState(self.model1)
+        self.library = library if library is not None else library_for(c)
+        self.phase = "idle"
+        self.clip = None              #: the Animation the response re-enters (None before the search)
+        self.clip_time = 0.0          #: the matched time in it, s
+        self.match = None             #: the SearchResult
+        self.hits = 0
+        self.time = 0.0               # s since the last hit
+        self.since_start = 0.0        # s since the response began
+        self._contact = []            # [body, force (3,), point or None, seconds left]
+        self._contact_end = 0.0
+        n = c.nbody
+        self._sim1_frames_pos = np.zeros((0, n, 3))
+        self._sim1_frames_rot = np.zeros((0, n, 4))
+        self._sim1_done = 0.0
+        self._sim1_count = 0
+        self._hold_rot = np.zeros((self.model1.njoint, 4))
+        self._found_rot = np.zeros((self.model1.njoint, 4))
+        self._armed = False
+        self._plan_time = 0.0
+        self._resume = None           # the looping clip playing before the response
+        self._prev_anim_pos = np.zeros((n, 3))
+        self._prev_anim_rot = np.zeros((n, 4))
+        self._off_pos = np.zeros((n, 3))
+        self._off_vel = np.zeros((n, 3))
+        self._off_rot = np.zeros((n, 3))
+        self._off_angvel = np.zeros((n, 3))
+        self._blend_t = 0.0
+        self._handoff = 0.0
+        self._frame_dt = 1.0 / self.library.rate
+        nrec = int(math.ceil((p.match_max + p.contact_push) / self._frame_dt)) + self.library.window + 1
+        self._sim1_pos = np.zeros((nrec, n, 3))
+        self._sim1_rot = np.zeros((nrec, n, 4))
+        self.root_trace: list = []    # (time since start, phase, root z) per tick, for plots
+        self.sim1_trace: list = []
+
+    @property
+    def reacting(self) -> bool:
+        return self.phase != "idle"
+
+    # -- the hit -----------------------------------------------------------------------
+
+    def hit(self, body, impulse, point=None, duration: float = 0.0) -> None:
+        c = self.char.creature
+        if isinstance(body, str):
+            if not c.has_body(body):
+                raise ImpactError(f"hit: creature '{c.name}' has no body '{body}'")
+            b = c.body(body)
+        elif isinstance(body, (int, np.integer)) and not isinstance(body, bool):
+            if not 0 <= int(body) < c.nbody:
+                raise ImpactError(f"hit: body index {body} out of range (creature '{c.name}' has {c.nbody} bodies)")
+            b = int(body)
+        else:
+            raise ImpactError(f"hit: body must be a name or an index, got {body!r}")
+        name = c.body_names[b]
+        J = np.asarray(impulse, dtype=float)
+        if J.shape != (3,) or not np.all(np.isfinite(J)):
+            raise ImpactError(f"hit on '{name}': impulse must be 3 finite numbers (N s), got {impulse!r}")
+        total = self.model2.total_mass
+        if np.linalg.norm(J) / total > self.params.max_speed:
+            raise ImpactError(f"hit on '{name}': impulse {np.linalg.norm(J):.4g} N s is absurd for a "
+                              f"{total:.4g} kg creature (more than {self.params.max_speed:g} m/s to all of it)")
+        if point is not None:
+            point = np.asarray(point, dtype=float)
+            if point.shape != (3,) or not np.all(np.isfinite(point)):
+                raise ImpactError(f"hit on '{name}': point must be 3 finite numbers, got {point!r}")
+        if not (isinstance(duration, (int, float)) and math.isfinite(duration) and 0.0 <= duration <= 5.0):
+            raise ImpactError(f"hit on '{name}': duration must be 0..5 s, got {duration!r}")
+        # -- validated; from here the hit is applied ---------------------------------------
+        ch = self.char
+        if self.phase in ("idle", "blend"):
+            # the displayed pose and its finite-difference velocity become the physics state
+            dt = ch._stack.last_dt
+            s = state_from_kinematic(self.model2, ch.world_positions, ch.world_rotations, ch._prev_world_pos,
+                                     ch._prev_world_rot, dt)
+            _copy_state(self.sim2, s)
+            if self.phase == "idle":
+                loops = [h.animation for h in ch.player.handles if h is not None and h.animation.loop]
+                self._resume = loops[0] if loops else None
+                self.since_start = 0.0
+                self.root_trace = []
+                self.sim1_trace = []
+            self._fade_handle = None
+        self.phase = "burst"
+        self.hits += 1
+        self.time = 0.0
+        self.clip = None
+        self.match = None
+        self._armed = False
+        self._blend_t = 0.0
+        # An instantaneous hit is delivered as a force over one frame, so the joint solver
+        # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
+        span = float(duration) if duration > 0.0 else ch._stack.last_dt
+        self._contact.append([b, J / span, point, span])
+        self._contact_end = duration
+        # the servos hold the interrupted clip's pose as it was at the impact (Simulation 1)
+        servo_targets_from_pose(self.model2, ch.world_rotations, self._hold_rot)
+        np.copyto(self.sim2.joint_target_rot, self._hold_rot)
+        # Simulation 1 restarts from the live state (a second hit re-plans from here)
+        _copy_state(self.sim1, self.sim2)
+        self._sim1_contact = [b, J / span, point, span]
+        self._sim1_count = 0
+        self._sim1_done = 0.0
+        self._record_sim1()
+
+    # -- per tick ----------------------------------------------------------------------
+
+    def tick(self, dt: float) -> None:
+        """After the character's own stages: advance the response, write the pose."""
+        if self.phase == "idle":
+            return
+        ch = self.char
+        p = self.params
+        anim_pos, anim_rot = ch.world_positions, ch.world_rotations
+        self.time += dt
+        self.since_start += dt
+        if self.phase in ("burst", "transition"):
+            if self.phase == "burst":
+                self._advance_sim1(dt)
+                if self.time >= p.reaction_delay:
+                    self._plan()
+            if self.phase == "transition":
+                self._transition_targets()
+            self._apply_contacts(self.model2, self.sim2, self._contact, dt)
+            sub = max(1, int(math.ceil(dt / p.substep)))
+            step(self.model2, self.sim2, dt, substeps=sub)
+            if self.phase == "transition" and self._armed:
+                self._start_blend(anim_pos, anim_rot, dt)
+            else:
+                if self.phase == "transition" and self.time + dt >= self._handoff - 1e-9:
+                    self._arm(dt)
+                np.copyto(self._prev_anim_pos, anim_pos)
+                np.copyto(self._prev_anim_rot, anim_rot)
+                np.copyto(anim_pos, self.sim2.body_pos)
+                np.copyto(anim_rot, self.sim2.body_rot)
+        elif self.phase == "blend":
+            self._blend_t += dt
+            t = self._blend_t
+            w = p.blend_omega
+            e = math.exp(-w * t)
+            kx = (1.0 + w * t) * e
+            kv = t * e
+            if t >= p.blend_time:
+                self.phase = "idle"
+                from engine.runtime import _REACTING
+
+                _REACTING.discard(self.char)
+            else:
+                anim_pos += kx * self._off_pos + kv * self._off_vel
+                rv = kx * self._off_rot     # rotations: the offset alone (see _start_blend)
+                _rotate_by_rotvec(rv, anim_rot)
+        self.root_trace.append((self.since_start, self.phase, float(anim_pos[0, 2])))
+
+    def _record_sim1(self) -> None:
+        k = self._sim1_count
+        if k < self._sim1_pos.shape[0]:
+            self._sim1_pos[k] = self.sim1.body_pos
+            self._sim1_rot[k] = self.sim1.body_rot
+            self._sim1_count = k + 1
+
+    def _advance_sim1(self, dt: float) -> None:
+        """Simulation 1 in slices: all of its lookahead done by the end of the delay."""
+        p = self.params
+        total = self._sim1_pos.shape[0] - 1
+        ticks_left = max(1, int(math.ceil((p.reaction_delay - self.time + dt) / dt - 1e-9)))
+        want = min(total, self._sim1_count - 1 + int(math.ceil((total - (self._sim1_count - 1)) / ticks_left)))
+        sub = max(1, int(math.ceil(self._frame_dt / p.lookahead_substep)))
+        while self._sim1_count - 1 < want:
+            if self._sim1_contact is not None:
+                self._apply_contacts(self.model1, self.sim1, [self._sim1_contact], self._frame_dt)
+                if self._sim1_contact[3] <= 0:
+                    self._sim1_contact = None
+            step(self.model1, self.sim1, self._frame_dt, substeps=sub)
+            self._record_sim1()
+            self.sim1_trace.append((self.since_start - self.time + (self._sim1_count - 1) * self._frame_dt,
+                                    float(self.sim1.body_pos[0, 2])))
+
+    @staticmethod
+    def _apply_contacts(model, state, contacts, dt) -> None:
+        state.body_force[:] = 0.0
+        state.body_torque[:] = 0.0
+        for entry in contacts:
+            b, F, point, left = entry
+            if left <= 0:
+                continue
+            share = min(dt, left) / dt
+            f = F * share
+            state.body_force[b] += f
+            if point is not None:
+                state.body_torque[b] += np.cross(point - state.body_pos[b], f)
+            entry[3] = left - dt
+        contacts[:] = [e for e in contacts if e[3] > 0]
+
+    def _plan(self) -> None:
+        """The search (paper section 3) and the start of the transition."""
+        p = self.params
+        while self._sim1_count < self._sim1_pos.shape[0]:     # a delay shorter than a tick
+            self._advance_sim1(1e9)
+        lo = min(p.match_min + min(self._contact_end, p.contact_push), p.match_max)
+        lo = max(lo, self.time + self._frame_dt)               # never in the past
+        k0 = int(math.ceil(lo / self._frame_dt))
+        k1 = int(p.match_max / self._frame_dt)
+        k1 = max(k0, min(k1, self._sim1_count - self.library.window))
+        feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
+                                self._sim1_rot[: self._sim1_count])
+        res: SearchResult = search(self.library, feats, k0, k1)
+        self.match = res
+        self.clip = self.library.clips[res.clip]
+        self.clip_time = res.clip_time
+        self._handoff = res.sim_frame * self._frame_dt
+        self._plan_time = self.time
+        self._armed = False
+        self.phase = "transition"
+        if self.time + self._frame_dt * 0 >= self._handoff - 1e-9:
+            self._arm(0.0)
+
+    def _transition_targets(self) -> None:
+        """theta_d: the interrupted pose slerped with ease-in/out toward the found clip's
+        pose at the time it will have at the hand-off (the library's frames: joint-relative
+        rotations do not depend on the placement)."""
+        lib = self.library
+        s = self.match.lib_frame
+        back = int(round((self._handoff - self.time) / self._frame_dt))
+        f = s - back
+        first = int(np.searchsorted(lib.clip_of, lib.clip_of[s]))
+        f = max(f, first)
+        span = max(self._handoff - self._plan_time, 1e-6)
+        u = min(max((self.time - self._plan_time) / span, 0.0), 1.0)
+        u = u * u * (3.0 - 2.0 * u)
+        servo_targets_from_pose(self.model2, lib.rot[f], self._found_rot)
+        _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
+
+    def _arm(self, dt: float) -> None:
+        """One tick before the hand-off: the found clip starts (no fade: the pose is the
+        library's, the one the search matched), placed so its root at the matched time sits
+        on Simulation 1's root at the match (yaw and ground-plane translation)."""
+        ch = self.char
+        res = self.match
+        ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
+        start = min(max(self.clip_time - dt, 0.0), self.clip.length)
+        ch.play(self.clip, fade=0.0, start_time=start)
+        if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
+            ch.queue(self._resume, fade=0.3)       # after a one-shot reaction: what played before
+        self._armed = True
+
+    def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
+        """Hand-off: the offset between physics and animation, and its velocity."""
+        s = self.sim2
+        np.subtract(s.body_pos, anim_pos, out=self._off_pos)
+        # the found clip's velocity from the library (its first frame has no previous one)
+        lib = self.library
+        f = self.match.lib_frame
+        if f > 0 and lib.clip_of[f - 1] == lib.clip_of[f]:
+            v = (lib.pos[f] - lib.pos[f - 1]) * lib.rate
+            c, sn = math.cos(self.match.place_yaw), math.sin(self.match.place_yaw)
+            anim_vel = np.stack([c * v[:, 0] - sn * v[:, 1], sn * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
+        else:
+            anim_vel = np.zeros_like(anim_pos)
+        np.subtract(s.body_linvel, anim_vel, out=self._off_vel)
+        self._off_rot[:] = rotvec_between(anim_rot, s.body_rot)
+        # The angular-velocity offset is not carried: the animated pose's finite-difference
+        # angular velocity at the hand-off tick includes the found clip's fade and the
+        # jiggles' springs, and carrying it flipped ears 0.6 rad in a frame. Rotations are
+        # continuous at the hand-off; their rate is the animation's from then on.
+        self.phase = "blend"
+        self._blend_t = 0.0
+        np.copyto(anim_pos, s.body_pos)
+        np.copyto(anim_rot, s.body_rot)
+
+
+def _slerp_into(a: np.ndarray, b: np.ndarray, u: float, out: np.ndarray) -> None:
+    """Per-row slerp of unit quaternions (shortest way)."""
+    d = np.sum(a * b, axis=1)
+    sign = np.where(d < 0, -1.0, 1.0)
+    d = np.minimum(np.abs(d), 1.0)
+    th = np.arccos(d)
+    st = np.sin(th)
+    small = st < 1e-6
+    wa = np.where(small, 1.0 - u, np.sin((1.0 - u) * th) / np.where(small, 1.0, st))
+    wb = np.where(small, u, np.sin(u * th) / np.where(small, 1.0, st)) * sign
+    np.multiply(a, wa[:, None], out=out)
+    out += b * wb[:, None]
+    out /= np.linalg.norm(out, axis=1)[:, None]
+
+
+def _rotate_by_rotvec(rv: np.ndarray, q: np.ndarray) -> None:
+    """q <- exp(rv) q for stacks (n, 3), (n, 4), in place."""
+    ang = np.linalg.norm(rv, axis=1)
+    half = 0.5 * ang
+    s = np.where(ang > 1e-12, np.sin(half) / np.maximum(ang, 1e-300), 0.5)
+    dw = np.cos(half)
+    dv = rv * s[:, None]
+    w, v = q[:, 0].copy(), q[:, 1:].copy()
+    q[:, 0] = dw * w - np.sum(dv * v, axis=1)
+    q[:, 1:] = dw[:, None] * v + w[:, None] * dv + np.cross(dv, v)
+    q /= np.linalg.norm(q, axis=1)[:, None]
+
+
+__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES"]

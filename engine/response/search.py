@@ -1,0 +1,214 @@
+"""The search for where to re-enter animation (Zordan et al. 2005 section 3).
+
+Windows of Simulation 1's trajectory against windows of the library. Both windows are
+normalized by aligning their roots at the window's first frame by yaw about +Z and
+translation in the ground plane only (so the tilt of a fall counts). The distance is
+
+    D = sum_i w_i sum_b ( wp_b |p_b(sim_i) - p_b(lib_i)| / h + wq_b angle(q_b(sim_i), q_b(lib_i)) )
+
+with, all from the creature's morphology, never tuned per creature:
+    wp_b   the body's share of the mass divided by (1 + its depth in edges from the root):
+           heavy trunk bodies dominate, limbs (far, light) count less because "differences
+           in the positions of the limbs can be more easily modified" by the transition.
+           Normalized to sum 1; positions are divided by the creature's height h, so the
+           distance is the same for a mouse and a giant.
+    support the foot nearest the centre of mass (ground plane) at the sim window's first
+           frame gets +1 (as much as all other bodies together): a match that moves the
+           supporting foot would make it slide (paper: "the closest ground-support body").
+    wq_b   0.5 wp_b (radians against fractions of the height: a 0.1 rad tilt of the trunk
+           costs as much as a 5% of height shift).
+    w_i    1 - 0.75 (i / (W - 1))^2: quadratic, highest at the window's start.
+
+Unique-frame culling keeps the library starts that differ from the last kept one by
+``library.UNIQUE_TOL``; the best culled window is then refined over every start within
+``REFINE`` frames of it and every simulation start within ``REFINE`` frames.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+REFINE = 3
+SIM_STRIDE = 3          # coarse simulation starts every 0.1 s at 30 Hz
+
+
+class SearchResult(NamedTuple):
+    clip: int
+    clip_time: float
+    lib_frame: int
+    sim_frame: int
+    distance: float
+    place_yaw: float
+    place_pos: np.ndarray
+    candidates: int
+
+
+def _rest_yaw(creature) -> float:
+    q = creature.body_rest_rot[0]
+    return float(np.arctan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2)))
+
+
+def yaw_of(creature, root_rot, root_pos):
+    """Heading (rad about +Z) of the root's forward axis relative to its rest, and the
+    root's ground-plane position, per row."""
+    q = np.asarray(root_rot).reshape(-1, 4)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    rest = creature.body_rest_rot[0]
+    # forward = R(q R_rest^-1) X: use the rotated rest forward
+    rw, rx, ry, rz = rest
+    # q * conj(rest)
+    cw = w * rw + x * rx + y * ry + z * rz
+    cx = -w * rx + x * rw - y * rz + z * ry
+    cy = -w * ry + x * rz + y * rw - z * rx
+    cz = -w * rz - x * ry + y * rx + z * rw
+    fx = 1 - 2 * (cy * cy + cz * cz)
+    fy = 2 * (cx * cy + cw * cz)
+    yaw = np.arctan2(fy, fx)
+    return yaw, np.asarray(root_pos).reshape(-1, 3)[:, :2].copy()
+
+
+def body_weights(creature) -> np.ndarray:
+    m = np.prod(np.maximum(np.asarray(creature.body_extent, float), 1e-6), axis=1)   # volume ~ mass
+    w = (m / m.sum()) / (1.0 + np.asarray(creature.body_depth, float))
+    return w / w.sum()
+
+
+def _unyaw(yaw, xy, pos, rot):
+    """Positions and rotations (..., n, 3/4) expressed in the frame of heading ``yaw`` at
+    ground point ``xy`` (broadcast over the leading axes)."""
+    c, s = np.cos(-yaw), np.sin(-yaw)
+    px = pos[..., 0] - xy[..., 0:1]
+    py = pos[..., 1] - xy[..., 1:2]
+    out_p = np.empty_like(pos)
+    out_p[..., 0] = c[..., None] * px - s[..., None] * py
+    out_p[..., 1] = s[..., None] * px + c[..., None] * py
+    out_p[..., 2] = pos[..., 2]
+    hw, hz = np.cos(-yaw / 2)[..., None], np.sin(-yaw / 2)[..., None]
+    w, x, y, z = rot[..., 0], rot[..., 1], rot[..., 2], rot[..., 3]
+    out_q = np.empty_like(rot)
+    out_q[..., 0] = hw * w - hz * z
+    out_q[..., 1] = hw * x - hz * y
+    out_q[..., 2] = hw * y + hz * x
+    out_q[..., 3] = hw * z + hz * w
+    return out_p, out_q
+
+
+def library_windows(lib, starts):
+    """(S, W, n, 3), (S, W, n, 4): the library windows at ``starts`` in their first frame's
+    yaw frame."""
+    idx = starts[:, None] + np.arange(lib.window)[None, :]
+    yaw = lib.yaw[starts][:, None].repeat(lib.window, 1)
+    xy = lib.xy[starts][:, None, :].repeat(lib.window, 1)
+    return _unyaw(yaw, xy, lib.pos[idx], lib.rot[idx])
+
+
+def frame_distance_rows(creature, pa, ra, pb, rb, w) -> np.ndarray:
+    h = max(creature.height, 1e-6)
+    dp = np.linalg.norm(pa - pb, axis=-1) / h
+    dq = 2 * np.arccos(np.clip(np.abs(np.sum(ra * rb, axis=-1)), 0.0, 1.0))
+    return (dp + 0.5 * dq) @ w
+
+
+class SimFeatures(NamedTuple):
+    pos: np.ndarray
+    rot: np.ndarray
+    yaw: np.ndarray
+    xy: np.ndarray
+    support_body: np.ndarray   # per sim frame, the support foot (-1: none)
+
+
+def window_features(creature, pos, rot) -> SimFeatures:
+    yaw, xy = yaw_of(creature, rot[:, 0], pos[:, 0])
+    feet = np.asarray(creature.leg_foot, np.int64)
+    sup = np.full(pos.shape[0], -1, np.int64)
+    if feet.size:
+        m = np.prod(np.maximum(np.asarray(creature.body_extent, float), 1e-6), axis=1)
+        com = np.einsum("b,fbk->fk", m / m.sum(), pos)
+        d = np.linalg.norm(pos[:, feet, :2] - com[:, None, :2], axis=-1)
+        sup = feet[np.argmin(d, axis=1)]
+    return SimFeatures(pos, rot, yaw, xy, sup)
+
+
+def _sim_window(lib, f: SimFeatures, k: int):
+    W = lib.window
+    yaw = np.full(W, f.yaw[k])
+    xy = np.repeat(f.xy[k][None], W, 0)
+    return _unyaw(yaw, xy, f.pos[k:k + W], f.rot[k:k + W])
+
+
+def window_weights(W: int) -> np.ndarray:
+    i = np.arange(W) / max(W - 1, 1)
+    return 1.0 - 0.75 * i * i
+
+
+def _distances(lib, f, k, wpos, wrot, h, wi):
+    """Distance of sim window k to library windows (S, W, n, 3/4)."""
+    sp, sq = _sim_window(lib, f, k)
+    wb = lib.weights.copy()
+    if f.support_body[k] >= 0:
+        wb[f.support_body[k]] += 1.0
+    d = wpos - sp[None]
+    dp = np.sqrt(np.einsum("swbk,swbk->swb", d, d)) * (1.0 / h)
+    dot = np.abs(np.einsum("swbk,wbk->swb", wrot, sq))
+    np.minimum(dot, 1.0, out=dot)
+    dp += np.arccos(dot)             # 0.5 x the angle 2 acos|q1.q2|
+    return (dp @ wb) @ wi
+
+
+def search(lib, f: SimFeatures, k0: int, k1: int) -> SearchResult:
+    """The best (sim start in k0..k1, library start) pair; see the module docstring."""
+    h = max(lib.creature.height, 1e-6)
+    wi = window_weights(lib.window)
+    best = (np.inf, -1, -1)
+    ks = list(range(k0, k1 + 1, SIM_STRIDE)) or [k0]
+    if ks[-1] != k1:
+        ks.append(k1)
+    ncand = 0
+    for k in ks:
+        d = _distances(lib, f, k, lib.win_pos, lib.win_rot, h, wi)
+        ncand += d.shape[0]
+        j = int(np.argmin(d))
+        if d[j] < best[0]:
+            best = (float(d[j]), k, int(lib.starts[j]))
+    # local refinement: every start around the best, every sim start around it
+    _, kb, sb = best
+    cand = np.arange(max(0, sb - REFINE), min(lib.frames, sb + REFINE + 1))
+    cand = cand[lib.valid[cand] & (lib.clip_of[cand] == lib.clip_of[sb])]
+    wpos, wrot = library_windows(lib, cand)
+    for k in range(max(k0, kb - REFINE), min(k1, kb + REFINE) + 1):
+        d = _distances(lib, f, k, wpos, wrot, h, wi)
+        ncand += d.shape[0]
+        j = int(np.argmin(d))
+        if d[j] < best[0]:
+            best = (float(d[j]), k, int(cand[j]))
+    dist, k, s = best
+    yaw = float(f.yaw[k] - lib.yaw[s])
+    c, sn = np.cos(yaw), np.sin(yaw)
+    lx, ly = lib.xy[s]
+    pos = np.array([f.xy[k, 0] - (c * lx - sn * ly), f.xy[k, 1] - (sn * lx + c * ly), 0.0])
+    return SearchResult(int(lib.clip_of[s]), float(lib.time[s]), s, k, dist, yaw, pos, ncand)
+
+
+def search_brute(lib, f: SimFeatures, k0: int, k1: int):
+    """Reference: every valid library start against every sim start, loops (tests)."""
+    h = max(lib.creature.height, 1e-6)
+    wi = window_weights(lib.window)
+    best = (np.inf, -1, -1)
+    for k in range(k0, k1 + 1):
+        sp, sq = _sim_window(lib, f, k)
+        wb = lib.weights.copy()
+        if f.support_body[k] >= 0:
+            wb[f.support_body[k]] += 1.0
+        for s in np.flatnonzero(lib.valid):
+            lp, lq = library_windows(lib, np.array([s]))
+            total = 0.0
+            for i in range(lib.window):
+                for b in range(lib.pos.shape[1]):
+                    dp = np.linalg.norm(lp[0, i, b] - sp[i, b]) / h
+                    dq = 2 * np.arccos(min(abs(float(np.dot(lq[0, i, b], sq[i, b]))), 1.0))
+                    total += wi[i] * wb[b] * (dp + 0.5 * dq)
+            if total < best[0]:
+                best = (total, k, int(s))
+    return best

@@ -1,0 +1,224 @@
+"""Impact response (engine.response.impact): hits on library, random and captured
+creatures, hits in series, determinism, bad input, the search against brute force."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import engine
+from engine.model import build_creature, random_creature_def
+from engine.physics.world import rotvec_between
+from engine.response import search as S
+from engine.response.impact import ImpactError, ImpactParams, _models
+from engine.response.library import MotionLibrary, library_for
+from engine.runtime import Character
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BOXING = os.path.join(ROOT, "..", "shared", "data", "mocap", "boxing_toes_punch_hit_fall.bvh")
+DT = 1 / 60
+
+
+def _creature(kind):
+    if kind == "capture":
+        from engine.io.bvh_creature import creature_from_bvh
+
+        return creature_from_bvh(BOXING)
+    if kind.startswith("random"):
+        return build_creature(random_creature_def(int(kind[6:])))
+    return engine.load_creature(os.path.join(ROOT, "creatures", f"{kind}.yaml"))
+
+
+_CHARS: dict = {}
+
+
+def _standing(kind):
+    c = _CHARS.get(kind)
+    if c is None:
+        c = _CHARS[kind] = _creature(kind)
+    ch = Character(c)
+    ch.play(engine.load_animation(os.path.join(ROOT, "animations", "idle_breathe.yaml")))
+    for _ in range(10):
+        ch.tick(DT)
+    return ch
+
+
+def _run(ch, hits, seconds=3.0):
+    """Tick through ``hits`` [(tick, body, impulse)]; return per-frame checks."""
+    prev_rot = ch.world_rotations.copy()
+    maxrot, minz, end_tick, finite = 0.0, np.inf, None, True
+    p0 = ch.world_positions[0].copy()
+    last_hit = max(t for t, _, _ in hits)
+    for k in range(int(seconds / DT)):
+        was_physical = ch.reacting and ch.response.phase in ("burst", "transition")
+        for t, b, J in hits:
+            if t == k:
+                ch.hit(b, J)
+        ch.tick(DT)
+        finite &= bool(np.all(np.isfinite(ch.world_positions)) and np.all(np.isfinite(ch.world_rotations)))
+        # the hand-offs: to physics (the impact tick from animation) and back (the blend);
+        # in between the bodies move as the physics moves them
+        handoff = (not was_physical) or not (ch.reacting and ch.response.phase in ("burst", "transition"))
+        turn = float(np.linalg.norm(rotvec_between(prev_rot, ch.world_rotations), axis=1).max())
+        if handoff:
+            maxrot = max(maxrot, turn)
+        prev_rot = ch.world_rotations.copy()
+        minz = min(minz, float(ch.world_positions[:, 2].min() - 0.0))
+        if k > last_hit and end_tick is None and not ch.reacting:
+            end_tick = k
+    return dict(maxrot=maxrot, minz=minz, back=None if end_tick is None else (end_tick - last_hit) * DT,
+                finite=finite, disp=ch.world_positions[0] - p0)
+
+
+def _lowest_rest(ch):
+    # bodies' centres: the lowest centre of the rest pose less its half extent sits on the ground
+    return -0.01 - float(np.max(ch.creature.body_extent))
+
+
+@pytest.mark.parametrize("kind", ["humanoid", "dog", "random1", "random4", "capture", pytest.param(
+    "random3", marks=pytest.mark.xfail(strict=True, reason="light arm and tail chains whip 2-3 rad per frame "
+                                       "in the burst (issue-13 note, failure cases)"))])
+def test_a_hit_is_answered_and_the_character_is_back_on_animation(kind):
+    ch = _standing(kind)
+    c = ch.creature
+    mass = _models(c, ImpactParams())[1].total_mass
+    J = np.array([-1.0, 0.3, 0.0]) / np.hypot(1.0, 0.3) * 1.5 * mass      # 1.5 m/s to all of it: a shove
+    r = _run(ch, [(0, 0, J)])
+    assert r["finite"]
+    assert r["back"] is not None and r["back"] <= 2.0, r
+    assert r["maxrot"] < 0.5, r
+    assert ch.response.clip is not None
+    disp = r["disp"][:2]
+    if np.linalg.norm(disp) > 0.02 * c.height:
+        cos = disp @ J[:2] / (np.linalg.norm(disp) * np.linalg.norm(J[:2]))
+        assert cos > 0.5, (disp, J)
+
+
+def test_the_impact_tick_does_not_pop():
+    """A hit of almost nothing: the first physical frame continues the animated motion."""
+    ch = _standing("humanoid")
+    ref = _standing("humanoid")
+    ch.hit("spine2", (1e-6, 0, 0))
+    ch.tick(DT)
+    ref.tick(DT)
+    h = ch.creature.height
+    assert ch.reacting and ch.response.phase == "burst"
+    assert np.abs(ch.world_positions - ref.world_positions).max() < 0.01 * h
+    assert np.linalg.norm(rotvec_between(ref.world_rotations, ch.world_rotations), axis=1).max() < 0.05
+
+
+@pytest.mark.parametrize("n", [2, 5])
+def test_hits_in_series(n):
+    rng = np.random.default_rng(n)
+    ch = _standing("humanoid")
+    c = ch.creature
+    t, hits = 0, []
+    for _ in range(n):
+        d = rng.normal(size=3)
+        d[2] = 0
+        hits.append((t, int(rng.integers(c.nbody)), d / np.linalg.norm(d) * rng.uniform(10, 60)))
+        t += int(rng.integers(2, 37))            # 30-600 ms apart
+    r = _run(ch, hits, seconds=t * DT + 2.5)
+    assert r["finite"] and r["back"] is not None and r["back"] <= 2.0, r
+    assert r["maxrot"] < 0.5, r
+    assert r["minz"] > -0.03, r        # body centres; see the note: soft contacts let hard hits sink 2 cm
+    assert ch.response.hits == n
+
+
+def test_same_hits_same_poses_bit_for_bit():
+    out = []
+    for _ in range(2):
+        ch = _standing("dog")
+        _run(ch, [(0, 1, (0, 30, 0)), (12, 0, (-20, 0, 0))], seconds=1.5)
+        out.append((ch.world_positions.tobytes(), ch.world_rotations.tobytes()))
+    assert out[0] == out[1]
+
+
+@pytest.mark.parametrize("body,impulse,msg", [
+    ("no_such_body", (1, 0, 0), "no body 'no_such_body'"),
+    (99, (1, 0, 0), "out of range"),
+    ("pelvis", (np.nan, 0, 0), "finite"),
+    ("pelvis", (1e9, 0, 0), "absurd"),
+    ("pelvis", (1, 0), "3 finite"),
+])
+def test_bad_hits_are_refused_and_nothing_is_applied(body, impulse, msg):
+    ch = _standing("humanoid")
+    before = ch.world_positions.copy()
+    with pytest.raises(ImpactError, match=msg):
+        ch.hit(body, impulse)
+    assert not ch.reacting
+    ch.tick(DT)
+    assert not ch.reacting
+    assert np.abs(ch.world_positions - before).max() < 0.05
+
+
+def test_search_matches_brute_force_on_all_starts():
+    c = _creature("minimal")
+    clips = [engine.load_animation(os.path.join(ROOT, "animations", n)) for n in ("crouch.yaml", "wave.yaml")]
+    lib = MotionLibrary(c, clips)
+    lib.starts = np.flatnonzero(lib.valid)[::4]     # a small library so the reference runs fast
+    lib.win_pos, lib.win_rot = S.library_windows(lib, lib.starts)
+    rng = np.random.default_rng(0)
+    k = 20
+    sim_pos = lib.pos[10:10 + k] + rng.normal(scale=0.01, size=(k,) + lib.pos.shape[1:])
+    sim_rot = lib.rot[10:10 + k]
+    yaw = 0.7
+    R = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+    sim_pos = sim_pos @ R.T + np.array([1.0, -2.0, 0.0])
+    hq = np.array([np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)])
+    w, v = hq[0], hq[1:]
+    sim_rot = np.concatenate([(w * sim_rot[..., :1] - sim_rot[..., 1:] @ v[:, None]),
+                              w * sim_rot[..., 1:] + sim_rot[..., :1] * v + np.cross(v, sim_rot[..., 1:])], -1)
+    f = S.window_features(c, sim_pos, sim_rot)
+    old = S.SIM_STRIDE
+    S.SIM_STRIDE = 1
+    try:
+        got = S.search(lib, f, 2, 8)
+    finally:
+        S.SIM_STRIDE = old
+    ref = S.search_brute(lib, f, 2, 8)
+    assert got.distance == pytest.approx(ref[0], rel=1e-9)
+    # the yaw-and-translation alignment undoes the rotation we applied
+    assert abs((got.place_yaw - yaw + np.pi) % (2 * np.pi) - np.pi) < 0.05
+
+
+def test_library_of_a_random_creature_is_its_own():
+    c = _creature("random11")
+    lib = library_for(c)
+    assert lib.frames > 100 and lib.pos.shape[1] == c.nbody
+    assert np.all(np.isfinite(lib.pos)) and len(lib.starts) < lib.frames
+
+
+def test_a_crowd_member_reacts_while_the_others_stay_batched():
+    from engine.runtime import Crowd
+
+    def crowd():
+        chars = [_standing("humanoid") for _ in range(3)]
+        for i, ch in enumerate(chars):
+            ch.set_placement(position=(0.0, 2.0 * i, 0.0), teleport=True)
+        return chars, Crowd(chars)
+
+    a, ca = crowd()
+    b, cb = crowd()
+    for ch in a + b:
+        ch.tick(DT)                      # the same history before the crowd ticks
+    ca.tick(DT)
+    cb.tick(DT)
+    prev = a[1].world_rotations.copy()
+    a[1].hit("spine2", (-50.0, 0.0, 0.0))
+    ca.tick(DT)
+    cb.tick(DT)
+    assert a[1].reacting
+    assert np.linalg.norm(rotvec_between(prev, a[1].world_rotations), axis=1).max() < 0.5
+    ended = None
+    for k in range(150):
+        ca.tick(DT)
+        cb.tick(DT)
+        if ended is None and not a[1].reacting:
+            ended = k
+    assert ended is not None and ended * DT < 2.0
+    for i in (0, 2):
+        assert a[i].world_positions.tobytes() == b[i].world_positions.tobytes()
+    assert np.abs(a[1].world_positions[0, :2] - b[1].world_positions[0, :2]).max() > 0.02   # it was pushed
