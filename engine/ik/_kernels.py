@@ -121,11 +121,12 @@ EPS = 1e-12
 
 
 # -- small vector and quaternion algebra on tuples -------------------------------------
-# These helpers (and the small constraint helpers below) are ordinary calls for numba and
-# are inlined by LLVM, which inlines small functions anyway: numba's own inlining
-# (``inline="always"``) re-ran its front end and deep-copied the IR at each of their
-# thousands of call sites, 60% of the solver's compile time, for the same machine code.
-# The stages that take the plan ``P`` stay inlined by numba (see ``solve_one``).
+# These helpers are ordinary calls for numba and are inlined by LLVM, which inlines
+# functions this small anyway: numba's own inlining (``inline="always"``) re-ran its
+# front end and deep-copied the IR at each of their thousands of call sites, a quarter
+# of the solver's compile time, for machine code as fast (measured: benchmarks/startup.py,
+# benchmarks/ik.py). The constraint helpers below, with loops, and the stages that take
+# the plan ``P`` stay inlined by numba: without it the solve was 12% slower.
 
 
 @njit(cache=True, _nrt=False)
@@ -369,7 +370,7 @@ def transport_frame(p0, v0, a0, p1, v1, a1, frame, t_from, t_to, nsub):
 # -- the soft length constraint (section 4.3.1) ----------------------------------------
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def soft_response(e, slope, band, width):
     """Correction for a relative length error ``e``, C1 and piecewise: ``slope * e``
     inside the band (soft: only part of a small error is removed per sweep), a quadratic
@@ -386,7 +387,7 @@ def soft_response(e, slope, band, width):
     return c if e >= 0.0 else -c
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
     """One nonlinear length correction (Jakobsen 2001): move both endpoints along the
     constraint axis, in inverse proportion to their masses, by the soft response to how
@@ -418,7 +419,7 @@ def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slop
         pos[b, j] -= wb * corr * d[j]
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, band, width):
     """The moves ``relax_constraint`` would make, returned instead of applied (for the
     simultaneous update of several goals pulling one particle)."""
@@ -440,7 +441,7 @@ def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, ba
     return vscale(d, wa * corr), vscale(d, -wb * corr)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def project_length(pos, parent, child, length, plo, phi):
     """Projection of reconstruction: put ``child`` on the ray from ``parent`` at a length
     within [plo, phi] * length (section 4.3.2, "Reconstruction")."""
@@ -614,7 +615,7 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
         set3(dg_target, d, vsub(v3(goal_joint, P.dg_goal[d]), qrot(spine_rot, v3(P.dg_chord, d))))
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first):
     # The helpers called inside iteration loops take the plan arrays they read, not the
     # plan: an inlined ``P`` argument is a copy of 92 arrays (a reference count each).
@@ -706,7 +707,7 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
     state[0] = buckle
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def _flush_acc(sp_pos, sp_acc, i):
     if sp_acc[i, 0] != 0.0 or sp_acc[i, 1] != 0.0 or sp_acc[i, 2] != 0.0:
         set3(sp_pos, i, vadd(v3(sp_pos, i), v3(sp_acc, i)))
@@ -715,7 +716,7 @@ def _flush_acc(sp_pos, sp_acc, i):
         sp_acc[i, 2] = 0.0
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def _buckle_metric(bp_c1, bp_c2, bp_sign1, bp_rest_angle, sc_a, sc_b, sp_rest, root_rot, sp_pos):
     """How far the spine has folded: the largest increase, over the rest pose, of the
     angle between neighbouring spine constraints (the first constraint of a side with no
@@ -1023,7 +1024,7 @@ def soft_reach(target, origin, reach, soft):
     return vadd(origin, vscale(d, eased / dist))
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def _limb_target(goal_lpj, goal_body, goal_lproot, goal_reach, soft, goal_pos, goal_joint, lp_pos, gi):
     """Where goal ``gi`` pins its limb particle: a tip particle (at the body's origin) goes
     to the position goal itself, a joint particle to the goal converted to the joint;
@@ -1035,7 +1036,7 @@ def _limb_target(goal_lpj, goal_body, goal_lproot, goal_reach, soft, goal_pos, g
     return soft_reach(t, v3(lp_pos, goal_lproot[gi]), goal_reach[gi], soft)
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos,
                     lp_inv, first):
     """Pull goal particles toward their targets by the goal weight (the first time also
