@@ -6,10 +6,14 @@ Prints a table and ends with one JSON line: bodies, channels, single_ms (median 
 one 25-body humanoid playing the 12-channel ``perform`` animation), crowd_size,
 crowd_ms_per_character (median crowd tick / crowd size; big crowds sample and solve on
 all cores), crowd_serial_ms_per_character (the same crowd kept on one thread),
-crowd_vs_alone_max_m (largest pose difference between three crowd members and the same
+mixed_crowd_ms_per_character (``--crowd`` characters of eight library creatures, varied
+animations, half of them walking, one thread), mixed_walking_ms_per_character (the
+same, all walking), crowd_vs_alone_max_m (largest pose difference between three crowd members and the same
 characters ticked alone), threads (numba's thread count) and threading_layer, stages
-(median ms per stage, single character), scaling (single tick median for 25, 51 and 80
-bodies), cold_start_s (first tick in a fresh process with an empty numba cache) and
+(median ms per stage, single character), scaling (single tick median for 25, 51, 80,
+120 and 165 bodies), scaling_fit (a least-squares line through them: ms per body,
+intercept, worst relative distance of a point from the line), cold_start_s (first tick
+in a fresh process with an empty numba cache; ``benchmarks/startup.py`` has the detail) and
 warm_start_s (the same with the cache filled). The paper's figure: 0.2 ms per 25-body
 character frame on a 1.7 GHz Pentium-M. The machine is shared: note ``uptime``'s load
 with the figures (a core busy elsewhere costs the parallel crowd most).
@@ -18,6 +22,7 @@ with the figures (a core busy elsewhere costs the parallel crowd most).
 from __future__ import annotations
 
 import argparse
+import glob
 import json
 import os
 import subprocess
@@ -55,6 +60,44 @@ def start_time(cache_dir: str) -> float:
     out = subprocess.run([sys.executable, "-c", FIRST_TICK.format(root=ROOT)], env=env, capture_output=True,
                          text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])
+
+
+def dense_creature(nbody: int, tmp: str):
+    """A capture-style human (``benchmarks/dense_skeletons.py``: fingers, toes, a face; 108
+    bodies) with three-joint hair strands on the head until it has ``nbody`` bodies, as
+    game rigs carry for secondary motion (the strands are left to the jiggle stage)."""
+    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+    from dense_skeletons import Joint, bvh_text, human
+
+    from engine.io.bvh_creature import creature_def_from_bvh
+    from engine.model import build_creature
+
+    root = human("plain", 170.0, 1.0, np.random.default_rng(0), True, True)
+    head = root.children[0].children[0].children[0].children[0].children[0]
+    assert head.name == "Head", head.name
+    k = 0
+    while root.count() < nbody:
+        left = nbody - root.count()
+        a = 2.0 * np.pi * k / 12.0
+        strand = None
+        for n in range(min(3, left), 0, -1):
+            strand = Joint(f"Hair{k}_{n}", (0.0, -2.5, 0.0), [strand] if strand else [])
+        strand.offset = np.array([6.0 * np.cos(a), 14.0 - 0.5 * (k // 12), 6.0 * np.sin(a)])
+        head.children.append(strand)
+        k += 1
+    path = os.path.join(tmp, f"dense_{nbody}.bvh")
+    with open(path, "w") as f:
+        f.write(bvh_text(root))
+    return build_creature(creature_def_from_bvh(path, name=f"dense_{nbody}"))
+
+
+def scaling_creatures() -> list:
+    """Creatures of 25, 51, 80 bodies (library) and 120, 165 (capture-style skeletons)."""
+    out = [engine.load_creature(os.path.join(ROOT, "creatures", f"{n}.yaml"))
+           for n in ("humanoid", "scorpion", "spikebeast")]
+    with tempfile.TemporaryDirectory() as tmp:
+        out += [dense_creature(n, tmp) for n in (120, 165)]
+    return out
 
 
 def timed_tick(ch: R.Character, times: dict[str, list[float]]) -> None:
@@ -117,6 +160,46 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
     return float(np.median(ticks[5:]) * 1e3 / n), diff
 
 
+MIXED = ("humanoid", "dog", "spider", "snake", "hexapod", "trex", "octopus", "centipede")
+
+
+def mixed_crowd(n: int, walking: float, frames: int) -> float:
+    """Median ms per character of a crowd tick on one thread, as a game has it: ``n``
+    characters of the eight ``MIXED`` library creatures, each playing one of the library
+    animations its body can play (variants and speeds varied, targets set), and the
+    share ``walking`` of them locomoting (gait) with it."""
+    from engine.anim.binding import branch_failures
+
+    anims = [load_animation(p) for p in sorted(glob.glob(os.path.join(ROOT, "animations", "*.yaml")))]
+    creatures = [engine.load_creature(os.path.join(ROOT, "creatures", f"{m}.yaml")) for m in MIXED]
+    playable = [[a for a in anims if not branch_failures(a, c)] for c in creatures]
+    chars = []
+    for k in range(n):
+        c = creatures[k % len(creatures)]
+        plist = playable[k % len(creatures)]
+        a = plist[(k // len(creatures)) % len(plist)]
+        ch = engine.Character(c, position=(k % 40, k // 40, 0), heading=0.1 * k)
+        h = c.height
+        for name in a.target_names:
+            ch.set_target(name, (0.7 * h, 0.25 * h, 0.7 * h))
+        ch.play(a, variant=k % ch.binding(a).nvariant, speed=0.8 + 0.4 * ((k * 37) % n) / n)
+        if (k * 0.618034) % 1.0 < walking:
+            ch.locomote(velocity=(0.5 * h, 0.0), turn_rate=0.2 * ((k % 5) - 2))
+        chars.append(ch)
+    group = engine.Crowd(chars)
+    parallel_min = R.PARALLEL_MIN_ROWS
+    R.PARALLEL_MIN_ROWS = 1 << 30   # one thread
+    try:
+        ticks = []
+        for _ in range(5 + frames):
+            t = time.perf_counter()
+            group.tick(DT)
+            ticks.append(time.perf_counter() - t)
+    finally:
+        R.PARALLEL_MIN_ROWS = parallel_min
+    return float(np.median(ticks[5:]) * 1e3 / n)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, default=2000)
@@ -131,14 +214,15 @@ def main() -> None:
     human = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
     single_ms, stages = single(human, anim, args.frames)
     scaling = {}
-    for name in ("humanoid", "scorpion", "spikebeast"):
-        c = engine.load_creature(os.path.join(ROOT, "creatures", f"{name}.yaml"))
+    for c in scaling_creatures():
         scaling[str(c.nbody)] = single(c, anim, max(args.frames // 4, 100))[0]
     crowd_ms, crowd_diff = crowd(human, anim, args.crowd, args.crowd_frames)
     parallel_min = R.PARALLEL_MIN_ROWS
     R.PARALLEL_MIN_ROWS = 1 << 30   # the same crowd on one thread
     crowd_serial_ms = crowd(human, anim, args.crowd, args.crowd_frames)[0]
     R.PARALLEL_MIN_ROWS = parallel_min
+    mixed_ms = mixed_crowd(args.crowd, 0.5, args.crowd_frames)
+    mixed_walk_ms = mixed_crowd(args.crowd, 1.0, args.crowd_frames)
     cold = warm = None
     if not args.quick:
         with tempfile.TemporaryDirectory() as cache:
@@ -157,17 +241,30 @@ def main() -> None:
     print(f"{'crowd of ' + str(args.crowd) + ', ms per character':<34}{crowd_ms:>12.4f}")
     print(f"{'  on one thread, ms per character':<34}{crowd_serial_ms:>12.4f}")
     print(f"{'  crowd vs alone, max m':<34}{crowd_diff:>12.2e}")
+    print(f"{'mixed crowd, half walking, ms/ch':<34}{mixed_ms:>12.4f}")
+    print(f"{'mixed crowd, all walking, ms/ch':<34}{mixed_walk_ms:>12.4f}")
     print(f"{'  threads (' + numba.threading_layer() + ')':<34}{numba.get_num_threads():>12}")
     if cold is not None:
         print(f"{'cold start (empty numba cache), s':<34}{cold:>12.2f}")
         print(f"{'warm start (numba cache), s':<34}{warm:>12.2f}")
+    nb = np.array([float(k) for k in scaling])
+    ms = np.array(list(scaling.values()))
+    slope, icept = np.polyfit(nb, ms, 1)
+    fit_dev = float(np.max(np.abs(ms - (slope * nb + icept)) / ms))
+    print(f"{'  linear fit, us per body':<34}{slope * 1e3:>12.3f}")
+    print(f"{'  intercept, ms':<34}{icept:>12.4f}")
+    print(f"{'  worst distance from the line':<34}{fit_dev:>12.1%}")
     print(json.dumps({"bodies": human.nbody, "channels": anim.nchannel, "single_ms": round(single_ms, 5),
                       "crowd_size": args.crowd, "crowd_ms_per_character": round(crowd_ms, 5),
                       "crowd_serial_ms_per_character": round(crowd_serial_ms, 5),
+                      "mixed_crowd_ms_per_character": round(mixed_ms, 5),
+                      "mixed_walking_ms_per_character": round(mixed_walk_ms, 5),
                       "crowd_vs_alone_max_m": crowd_diff, "threads": numba.get_num_threads(),
                       "threading_layer": numba.threading_layer(),
                       "stages": {k: round(v, 5) for k, v in stages.items()},
                       "scaling_ms_by_bodies": {k: round(v, 5) for k, v in scaling.items()},
+                      "scaling_fit": {"us_per_body": round(slope * 1e3, 4), "intercept_ms": round(icept, 5),
+                                      "worst_rel_dev": round(fit_dev, 3)},
                       "cold_start_s": None if cold is None else round(cold, 2),
                       "warm_start_s": None if warm is None else round(warm, 2),
                       "paper_ms": 0.2}))
