@@ -378,6 +378,8 @@ class Character:
             else:
                 _stand_rows(self._stack, _row(self._row))   # ... or standing: feet held on the ground
         _solve_character(self)                          # 6. IK (or the rest pose when off)
+        if self.gait is not None:
+            self.gait.observe(self._stack.char_pos[self._row], self._stack.char_rot[self._row])   # what the IK did
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
         if self.response is not None and self.response.phase != "idle":
@@ -732,6 +734,9 @@ class _Group:
             _stand_rows(s, s.rows)
         # 6. IK: one kernel per IK plan over the members using it
         self._solve(st.ik)
+        for m in self.members:
+            if m.gait is not None:
+                m.gait.observe(s.char_pos[m._row], s.char_rot[m._row])
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)

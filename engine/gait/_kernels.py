@@ -476,7 +476,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
               foot_contact, foot_world, foot_lift, foot_yaw, foot_lift_yaw, foot_target, foot_target_yaw, slope_w,
               foot_slope, slope_alpha, foot_tilt, root_dq, root_dpos,
               bob_state, bob_alpha, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, foot_bias,
-              step_lift_u, step_parked, step_done, clearance):
+              step_lift_u, step_parked, step_done, goal_written):
     """Stage 2 of a frame (see the module docstring).
 
     place_pos (3,), yaw        this frame's placement (world)
@@ -494,11 +494,11 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
     foot_hip/jointrel/chain/rigid/knee/contact  see ``engine.gait.rig`` (compass legs, pivot feet)
     root_pos, root_rot, goal_* in/out (character space)
     step_lift_u, step_parked, step_done (S,)  as in ``gait_plan`` (a hanging compass leg lifts here)
-    foot_bias (F, 3)           the IK's constant miss of each foot at the rest stance
-                               (character space): taken off the goal so the output lands on the spot
-    clearance                  m the whole character stands above the ground (root and every
-                               foot goal raised alike, so the legs' geometry is unchanged): the
-                               margin for the IK's miss varying on uneven ground
+    goal_written (F, 7)        out: each foot's goal as written (position, rotation; character
+                               space), for ``observe_feet``
+    foot_bias (F, 3)           the IK's miss of each foot (character space): taken off the goal so
+                               the output lands on the spot (calibrated at the rest stance, then
+                               followed from what the IK did last frame: ``observe_feet``)
     """
     nfoot = foot_body.shape[0]
     ngroup = group_lift.shape[0]
@@ -705,7 +705,7 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             dy = foot_world[f, 1] - place_pos[1]
             goal_pos[b, 0] = cy * dx + sy * dy - foot_bias[f, 0]
             goal_pos[b, 1] = -sy * dx + cy * dy - foot_bias[f, 1]
-            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2] - foot_bias[f, 2] + clearance
+            goal_pos[b, 2] = foot_world[f, 2] - place_pos[2] - foot_bias[f, 2]
             goal_pw[b] = 1.0
             # rotation: yaw relative to the heading, the slope tilt, the flight pitch (toe up
             # about the character's left axis), then the rest rotation
@@ -720,9 +720,45 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             goal_rw[b] = 1.0
             if foot_knee[f, 3] > 0.0:
                 # a pivot foot turns about its contact point to keep its knee on the
-                # segment's sphere around the hip (the root rises by the clearance below)
+                # segment's sphere around the hip
                 hx, hy, hz = _hip(root_pos, root_rot, foot_hip, f)
-                pivot_goal(goal_pos[b], goal_rot[b], foot_rest_rot[f], (hx, hy, hz + clearance), foot_knee[f],
+                pivot_goal(goal_pos[b], goal_rot[b], foot_rest_rot[f], (hx, hy, hz), foot_knee[f],
                            foot_contact[f])
-    # the root rises with the goals (after the compass hips above were set from the feet)
-    root_pos[2] += clearance
+    for f in range(nfoot):
+        b = foot_body[f]
+        for j in range(3):
+            goal_written[f, j] = goal_pos[b, j]
+        for j in range(4):
+            goal_written[f, 3 + j] = goal_rot[b, j]
+
+
+@njit(cache=True)
+def observe_feet(char_pos, char_rot, goal_written, foot_body, foot_stepper, step_state, foot_rest_rot, foot_contact,
+                 foot_bias, cal_bias, gain, flight_gain, limit):
+    """The gait sees the IK (issue 16): ``char_pos``, ``char_rot`` (nbody, 3/4) are what the IK
+    made of the goals ``goal_written`` (F, 7) the last ``gait_pose`` wrote (character space).
+    The miss that matters is the foot's contact point's (``foot_contact``, carried by the
+    foot's rotation: a foot met at its origin but turned a little off its goal still lifts or
+    sinks its sole). Each driven foot's bias (taken off its goal position) moves by ``gain``
+    toward the miss the IK just made at that goal, so the next output lands where the gait
+    wants it: with goal = want - bias and output = goal + miss, bias = miss gives output =
+    want. A goal the IK cannot meet at all (a swinging knee-less leg over a bump) would wind
+    the bias up: it stays within ``limit`` (m, per foot) of the rest stance's calibrated bias
+    ``cal_bias``."""
+    for f in range(foot_body.shape[0]):
+        if step_state[foot_stepper[f]] == OWNED:
+            continue
+        b = foot_body[f]
+        rw, rx, ry, rz = foot_rest_rot[f, 0], -foot_rest_rot[f, 1], -foot_rest_rot[f, 2], -foot_rest_rot[f, 3]
+        cx, cy, cz = foot_contact[f, 0], foot_contact[f, 1], foot_contact[f, 2]
+        qo = _qmul(char_rot[b, 0], char_rot[b, 1], char_rot[b, 2], char_rot[b, 3], rw, rx, ry, rz)
+        qg = _qmul(goal_written[f, 3], goal_written[f, 4], goal_written[f, 5], goal_written[f, 6], rw, rx, ry, rz)
+        co = _qrot(qo[0], qo[1], qo[2], qo[3], cx, cy, cz)
+        cg = _qrot(qg[0], qg[1], qg[2], qg[3], cx, cy, cz)
+        k = gain if step_state[foot_stepper[f]] == STANCE else flight_gain
+        for j in range(3):
+            miss = char_pos[b, j] + co[j] - goal_written[f, j] - cg[j]
+            v = foot_bias[f, j] + k * (miss - foot_bias[f, j])
+            lo = cal_bias[f, j] - limit[f]
+            hi = cal_bias[f, j] + limit[f]
+            foot_bias[f, j] = min(max(v, lo), hi)

@@ -45,14 +45,19 @@ BIAS_SHARE = 0.03
 #: The calibration picks the least crouch whose half-sweep is at least this share of the
 #: best it found at any crouch.
 CROUCH_SWEEP_SHARE = 0.7
-#: Height (m) the whole character stands above the terrain (root and foot goals raised
-#: alike): the calibration lets a planted foot's IK miss vary by up to ``CAL_TOL`` from its
-#: constant part, so on uneven ground the output may sink by about that much; twice it keeps
-#: every foot above the ground and costs the touchdown error under a millimetre.
+#: How much (m) the calibration lets a planted foot's IK miss vary from its constant part
+#: (the gait follows what is left from the IK's output: ``observe``).
 CAL_TOL = 3e-4
 # phases of the inch-worm wave a crawler's forward sweep is calibrated at (``_calibrate``)
 CRAWL_CAL_PHASES = 12
-GROUND_CLEARANCE = 2.0 * CAL_TOL
+#: ``observe``: share of the way a foot's bias moves toward the IK's latest miss per frame,
+#: in stance and in flight, and how far (m) it may leave the calibrated rest-stance bias: the
+#: calibration verified the planted feet's miss varies by at most ``CAL_TOL`` from it, so a
+#: larger miss is the IK failing a goal for a frame, not a bias to learn (followed, the one-frame
+#: lag put a centipede's foot 0.5 mm under the ground the frame after).
+OBSERVE_GAIN = 1.0
+OBSERVE_FLIGHT_GAIN = 1.0
+OBSERVE_LIMIT = CAL_TOL
 #: Smallest calibrated half-sweep (share of leg length) a group steps with; below it the
 #: legs stand (``GaitController.immobile``).
 MIN_SWEEP_SHARE = 0.01
@@ -177,12 +182,31 @@ class GaitController:
         self.immobile = False
         self._prev_root_pos = np.zeros(3)
         self._prev_root_rot = np.array([1.0, 0.0, 0.0, 0.0])
+        #: the feet's goals the last ``step`` wrote (character space), for ``observe``
+        self._goal_written = np.zeros((F, 7))
+        self._written = False
         self._group_steps = [[int(s) for s in np.flatnonzero(r.step_group == g)] for g in range(G)]
         self._idle = True
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
         self._cache = None                   # the calibration moved the sweeps and crouches
+        self._cal_bias = self.foot_bias.copy()
+        self._observe_limit = np.full(r.nfoot, OBSERVE_LIMIT)
+
+    def observe(self, char_pos, char_rot) -> None:
+        """What the IK made of the goals the last ``step`` wrote: ``char_pos`` (nbody, 3)
+        character space (the runtime passes its IK output after every solve). Each foot's
+        miss at its goal is taken off its next goal (``K.observe_feet``), so a planted foot
+        lands and stays on the ground even where the IK's miss changes with the stance
+        (uneven ground, a branching leg): no blanket clearance above the terrain is needed."""
+        if not self._written or self.rig.nfoot == 0:
+            return
+        self._written = False
+        r = self.rig
+        K.observe_feet(char_pos, char_rot, self._goal_written, r.foot_body, r.foot_stepper, self.step_state,
+                       r.foot_rest_rot, r.foot_contact, self.foot_bias, self._cal_bias, OBSERVE_GAIN,
+                       OBSERVE_FLIGHT_GAIN, self._observe_limit)
 
     def _calibrate(self, tol: float = CAL_TOL, tries: int = 12) -> None:
         """Measure with the IK itself how far each group's feet may sweep from their rest
@@ -850,7 +874,8 @@ class GaitController:
                     self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
                     1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
                     goal_pos, goal_rot, goal_pw, goal_rw, self.foot_bias, self.step_lift_u, self.step_parked,
-                    self.step_done, GROUND_CLEARANCE if r.nfoot else 0.0)
+                    self.step_done, self._goal_written)
+        self._written = True
         self._last_place[:] = place_pos
         self._prev_root_pos[:] = root_pos
         self._prev_root_rot[:] = root_rot
