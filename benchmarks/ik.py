@@ -96,7 +96,7 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
             K._place_rigid(P, out_pos, out_rot)
         elif stage == 5:
             K._limb_phase(P, goal_pos, gpw, goal_rot, grw, goal_joint, lp_pos, lp_rest, lp_inv, out_pos, out_rot,
-                          lg_target, lg_jtarget)
+                          lg_target, lg_jtarget, scratch)
     return acc
 
 
