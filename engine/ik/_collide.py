@@ -20,8 +20,9 @@ Layout (one int32 and one float64 field of the plan, see ``engine.ik.selfcollisi
 ``cl_i`` = [nprox, nmove, npair, work_row, rounds, then per proxy (carrier, pivot, dir),
 then per pair (a, b)]; movers come first (pivot >= 0). ``cl_f`` = per proxy (a (3), b (3)
 in the carrier's frame, radius, bound = half length + radius), then per pair the rest
-pose's own overlap (m), which is allowed. Work rows in the scratch: 2 per proxy (the
-world ends of its capsule).
+pose's own overlap (m), which is allowed, and the square of the distance between the
+two capsules' middles beyond which they cannot touch. Work rows in the scratch: ``W``
+per proxy (the world ends of its capsule, their middle, a mover's rest offsets).
 
 Like ``engine.ik._kernels`` (whose stage calls this one, inlined), everything is compiled
 without reference counts and touches no heap; the small tuple algebra is repeated here
@@ -38,6 +39,7 @@ EPS = 1e-12
 NI_HEAD = 5      # ints before the per-proxy records
 NI_PROX = 3      # ints per proxy
 NF_PROX = 8      # floats per proxy
+W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
 MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
 
 
@@ -114,8 +116,8 @@ def _clamp01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True, _nrt=False)
-def closest_params(p1, q1, p2, q2):
+@njit(cache=True, _nrt=False, inline="always")
+def _closest_params(p1, q1, p2, q2):
     """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson,
     Real-Time Collision Detection 5.1.9), made continuous where the segments turn
     parallel: there the closest pair is not unique and the textbook answer jumps from
@@ -183,6 +185,12 @@ def _nlerp(a, b, t):
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
+@njit(cache=True, _nrt=False)
+def closest_params(p1, q1, p2, q2):
+    """``_closest_params`` as a plain kernel (for the plan builder and tests)."""
+    return _closest_params(p1, q1, p2, q2)
+
+
 @njit(cache=True, _nrt=False, inline="always")
 def _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """World ends of proxy k's capsule into its two work rows. A fixed proxy rides its
@@ -198,19 +206,40 @@ def _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_p
     if i < 0:
         ps = _v3(out_pos, s)
         rs = _q4(out_rot, s)
-        _set3(work, 2 * k, _add(ps, _rot(rs, la)))
-        _set3(work, 2 * k + 1, _add(ps, _rot(rs, lb)))
+        a = _add(ps, _rot(rs, la))
+        b = _add(ps, _rot(rs, lb))
+        _set3(work, W * k, a)
+        _set3(work, W * k + 1, b)
+        _set3(work, W * k + 2, _scale(_add(a, b), 0.5))
         return
     c = cl_i[h + 2]
     pi = _v3(lp_pos, i)
-    rest = _qmul(_q4(out_rot, s), _q4(P.lp_rot_local, i))
-    rot = _qmul(_between(_sub(_v3(lp_rest, c), _v3(lp_rest, i)), _sub(_v3(lp_pos, c), pi)), rest)
+    sw = _between(_sub(_v3(lp_rest, c), _v3(lp_rest, i)), _sub(_v3(lp_pos, c), pi))
     b = P.lp_body[i]
     wr = min(max(goal_rot_w[b], 0.0), 1.0)
     if wr > 0.0:
-        rot = _nlerp(rot, _q4(goal_rot, b), wr)
-    _set3(work, 2 * k, _add(pi, _rot(rot, la)))
-    _set3(work, 2 * k + 1, _add(pi, _rot(rot, lb)))
+        rot = _nlerp(_qmul(sw, _qmul(_q4(out_rot, s), _q4(P.lp_rot_local, i))), _q4(goal_rot, b), wr)
+        a = _add(pi, _rot(rot, la))
+        bb = _add(pi, _rot(rot, lb))
+    else:  # the rest-posed offsets were turned once (``_prepare``)
+        a = _add(pi, _rot(sw, _v3(work, W * k + 3)))
+        bb = _add(pi, _rot(sw, _v3(work, W * k + 4)))
+    _set3(work, W * k, a)
+    _set3(work, W * k + 1, bb)
+    _set3(work, W * k + 2, _scale(_add(a, bb), 0.5))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _prepare(P, cl_i, cl_f, k, work, out_rot):
+    """A mover's capsule ends relative to its pivot in the rest pose carried by its attach
+    body: fixed during the limb phase, so turned once per solve."""
+    h = NI_HEAD + NI_PROX * k
+    s = cl_i[h]
+    i = cl_i[h + 1]
+    f = NF_PROX * k
+    rest = _qmul(_q4(out_rot, s), _q4(P.lp_rot_local, i))
+    _set3(work, W * k + 3, _rot(rest, (cl_f[f], cl_f[f + 1], cl_f[f + 2])))
+    _set3(work, W * k + 4, _rot(rest, (cl_f[f + 3], cl_f[f + 4], cl_f[f + 5])))
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -232,31 +261,38 @@ def _nudge(lp_pos, i, v):
     lp_pos[i, 2] += v[2]
 
 
-@njit(cache=True, _nrt=False)
-def _push_pairs(cl_i, cl_f, work, goal_rot_w, lp_pos, lp_parent, lp_body):
+@njit(cache=True, _nrt=False, inline="always")
+def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
-    particles apart along the contact normal. Returns how many pairs pushed."""
+    particles apart along the contact normal (the capsules are those posed at the start
+    of the pass). Returns how many pairs pushed."""
     nprox = cl_i[0]
+    nmove = cl_i[1]
     npair = cl_i[2]
+    lp_parent = P.lp_parent
+    lp_body = P.lp_body
     pair0 = NI_HEAD + NI_PROX * nprox
     allow0 = NF_PROX * nprox
+    for k in range(nmove):
+        _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     pushed = 0
     for p in range(npair):
         ka = cl_i[pair0 + 2 * p]
         kb = cl_i[pair0 + 2 * p + 1]
         fa = NF_PROX * ka
         fb = NF_PROX * kb
-        a0 = _v3(work, 2 * ka)
-        a1 = _v3(work, 2 * ka + 1)
-        b0 = _v3(work, 2 * kb)
-        b1 = _v3(work, 2 * kb + 1)
-        allowed = cl_f[allow0 + p]
         # bounding spheres first (most pairs are far apart)
-        dm = _sub(_scale(_add(a0, a1), 0.5), _scale(_add(b0, b1), 0.5))
-        reach = cl_f[fa + 7] + cl_f[fb + 7] - allowed
-        if reach <= 0.0 or _dot(dm, dm) >= reach * reach:
+        dx = work[W * ka + 2, 0] - work[W * kb + 2, 0]
+        dy = work[W * ka + 2, 1] - work[W * kb + 2, 1]
+        dz = work[W * ka + 2, 2] - work[W * kb + 2, 2]
+        if dx * dx + dy * dy + dz * dz >= cl_f[allow0 + 2 * p + 1]:
             continue
-        s, t = closest_params(a0, a1, b0, b1)
+        allowed = cl_f[allow0 + 2 * p]
+        a0 = _v3(work, W * ka)
+        a1 = _v3(work, W * ka + 1)
+        b0 = _v3(work, W * kb)
+        b1 = _v3(work, W * kb + 1)
+        s, t = _closest_params(a0, a1, b0, b1)
         qa = _add(a0, _scale(_sub(a1, a0), s))
         qb = _add(b0, _scale(_sub(b1, b0), t))
         d = _sub(qa, qb)
@@ -303,6 +339,7 @@ def _push_pairs(cl_i, cl_f, work, goal_rot_w, lp_pos, lp_parent, lp_body):
         if ib >= 0:
             _nudge(lp_pos, ib, _scale(n, -lam * vb))
             _nudge(lp_pos, cb, _scale(n, -lam * ub))
+
         pushed += 1
     return pushed
 
@@ -317,14 +354,14 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nprox = cl_i[0]
     nmove = cl_i[1]
     w0 = cl_i[3]
-    work = scratch[w0:w0 + 2 * nprox]
+    work = scratch[w0:w0 + W * nprox]
+    for k in range(nmove):
+        _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nlp = P.lp_body.shape[0]
     for _round in range(cl_i[4]):
-        for k in range(nmove):
-            _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
-        if _push_pairs(cl_i, cl_f, work, goal_rot_w, lp_pos, P.lp_parent, P.lp_body) == 0:
+        if _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot) == 0:
             break
         for i in range(nlp):
             c = P.lp_con[i]

@@ -106,7 +106,7 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         ps = c.body_rootrel_joint[o] if i >= 0 else c.body_rootrel_pos[o]
         ints += [s, i, d]
         floats += list(_qrot(qs, a0 - ps)) + list(_qrot(qs, a1 - ps))
-        floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]
+        floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]   # bounding radius about the middle
     pairs = []
     allowed = []
     for a in range(n):
@@ -121,10 +121,12 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
             a0, a1, ra = segs[a]
             b0, b1, rb = segs[b]
             pairs.append((slot[a], slot[b]))
-            allowed.append(max(0.0, ra + rb - closest_distance(a0, a1, b0, b1)))
+            allow = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1))
+            reach = floats[C.NF_PROX * slot[a] + 7] + floats[C.NF_PROX * slot[b] + 7] - allow
+            allowed += [allow, max(reach, 0.0) ** 2]
     ints[2] = len(pairs)
     for p in pairs:
         ints += list(p)
     cl_i = np.array(ints, np.int32)
     cl_f = np.array(floats + allowed, np.float64)
-    return cl_i, cl_f, 2 * len(order)
+    return cl_i, cl_f, C.W * len(order)
