@@ -22,7 +22,8 @@ then per pair (a, b)]; movers come first (pivot >= 0). ``cl_f`` = per proxy (a (
 in the carrier's frame, radius, bound = half length + radius), then per pair the rest
 pose's own overlap (m), which is allowed, and the square of the distance between the
 two capsules' middles beyond which they cannot touch. Work rows in the scratch: ``W``
-per proxy (the world ends of its capsule, their middle, a mover's rest offsets).
+per proxy (the world ends of its capsule, their middle, a mover's rest offsets), then
+one per limb particle (the pass's summed pushes, zero between passes).
 
 Like ``engine.ik._kernels`` (whose stage calls this one, inlined), everything is compiled
 without reference counts and touches no heap; the small tuple algebra is repeated here
@@ -255,17 +256,18 @@ def _bone_weight(lp_pos, i, c, q):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _nudge(lp_pos, i, v):
-    lp_pos[i, 0] += v[0]
-    lp_pos[i, 1] += v[1]
-    lp_pos[i, 2] += v[2]
+def _nudge(delta, i, v):
+    delta[i, 0] += v[0]
+    delta[i, 1] += v[1]
+    delta[i, 2] += v[2]
 
 
 @njit(cache=True, _nrt=False, inline="always")
 def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
-    particles apart along the contact normal (the capsules are those posed at the start
-    of the pass). Returns how many pairs pushed."""
+    particles apart along the contact normal. The pushes are summed and applied after the
+    pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
+    left and right stay mirror images. Returns how many pairs pushed."""
     nprox = cl_i[0]
     nmove = cl_i[1]
     npair = cl_i[2]
@@ -275,6 +277,8 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
     allow0 = NF_PROX * nprox
     for k in range(nmove):
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    nlp = lp_pos.shape[0]
+    delta = work[W * nprox:W * nprox + nlp]
     pushed = 0
     for p in range(npair):
         ka = cl_i[pair0 + 2 * p]
@@ -334,13 +338,18 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
             denom += vb * vb + ub * ub
         lam = pen / max(denom, MIN_DENOM)
         if ia >= 0:
-            _nudge(lp_pos, ia, _scale(n, lam * va))
-            _nudge(lp_pos, ca, _scale(n, lam * ua))
+            _nudge(delta, ia, _scale(n, lam * va))
+            _nudge(delta, ca, _scale(n, lam * ua))
         if ib >= 0:
-            _nudge(lp_pos, ib, _scale(n, -lam * vb))
-            _nudge(lp_pos, cb, _scale(n, -lam * ub))
+            _nudge(delta, ib, _scale(n, -lam * vb))
+            _nudge(delta, cb, _scale(n, -lam * ub))
 
         pushed += 1
+    if pushed:
+        for i in range(nlp):
+            for j in range(3):
+                lp_pos[i, j] += delta[i, j]
+                delta[i, j] = 0.0
     return pushed
 
 
@@ -354,7 +363,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nprox = cl_i[0]
     nmove = cl_i[1]
     w0 = cl_i[3]
-    work = scratch[w0:w0 + W * nprox]
+    work = scratch[w0:w0 + W * nprox + lp_pos.shape[0]]
     for k in range(nmove):
         _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once

@@ -129,4 +129,4 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         ints += list(p)
     cl_i = np.array(ints, np.int32)
     cl_f = np.array(floats + allowed, np.float64)
-    return cl_i, cl_f, C.W * len(order)
+    return cl_i, cl_f, C.W * len(order) + len(lp_body)
