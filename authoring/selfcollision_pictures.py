@@ -52,7 +52,7 @@ def picture(engine, c, animations, path, width=1600, height=900):
         except BindError:
             continue
         p0, r0, e0 = _play(engine, c, a, IKParams(self_collision=False))
-        p1, r1, e1 = _play(engine, c, a, IKParams())
+        p1, r1, e1 = _play(engine, c, a, IKParams(self_collision=True))
         f = int(np.argmax(e0.max(axis=1)))
         for k, (pos, rot, ex, tag) in enumerate(((p0, r0, e0, "off"), (p1, r1, e1, "on"))):
             scene.actors.append(sc.Actor(c, pos[f], rot[f], offset=(-step * row, step * k, 0.0),

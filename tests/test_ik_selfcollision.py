@@ -23,7 +23,7 @@ from engine.validation.cell import CellContext
 from engine.validation.thresholds import THRESHOLDS
 
 OFF = IKParams(self_collision=False)
-ON = IKParams()
+ON = IKParams(self_collision=True)
 FAIL = next(t for t in THRESHOLDS if t.metric == "self_intersection").fail
 
 
@@ -108,7 +108,7 @@ def test_closest_parameters_are_continuous_as_segments_turn_parallel():
 def test_pairs_are_built_with_the_plan_and_exempt_the_rest_pose():
     c = creature("humanoid")
     goals = [c.body(n) for n in ("hand_l", "hand_r", "foot_l", "foot_r")]
-    plan = plan_for(c, goals)
+    plan = plan_for(c, goals, ON)
     cl_i = plan.arrays.cl_i
     nprox, nmove, npair = int(cl_i[0]), int(cl_i[1]), int(cl_i[2])
     assert nprox == c.nbody and 0 < nmove < nprox and npair > 0
@@ -117,7 +117,7 @@ def test_pairs_are_built_with_the_plan_and_exempt_the_rest_pose():
     rp, rr = c.body_rest_pos[0].copy(), c.body_rest_rot[0].copy()
     rest_pos, _ = rest_pose_world(c, rp, rr)
     outs = []
-    for prm in (IKParams(), OFF):
+    for prm in (ON, OFF):
         s = IKSolver(c, goals, prm)
         for g in goals:
             s.goals.set(g, pos=rest_pos[g], rot=c.body_rest_rot[g])

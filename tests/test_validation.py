@@ -115,7 +115,7 @@ def test_a_box_pushed_into_another_measures_its_depth_beyond_rest(mini):
     rec.world_pos[10:20, foot_l] += (0.0, -0.15, 0.0)
     m = measures(self_intersection, rec, ctx)["self_intersection"]
     assert m.value == pytest.approx(0.03 / ctx.height, rel=1e-6)
-    assert set(m.body.split("/")) == {"foot_l", "foot_r"} and not m.known   # a real failure (issue 16 landed)
+    assert set(m.body.split("/")) == {"foot_l", "foot_r"} and m.known
 
 
 def test_overlap_already_in_the_rest_pose_is_exempt():

@@ -58,7 +58,7 @@ THRESHOLDS: tuple[Threshold, ...] = (
               "a standing foot's contact point moving 1% of the leg (a centimetre on a human) is skating"),
     Threshold("self_intersection", "height", 0.02, 0.06,
               "boxes of one creature overlapping 6% of its height deeper than at rest is an arm through a "
-              "belly (the IK pushes limbs out of its own bodies since issue 16)"),
+              "belly; known until the IK avoids its own bodies (issue 16)"),
     Threshold("joint_stretch", "bone", 0.03, 0.1,
               "the IK stretches a limb at most 2% to meet a goal at full reach; a joint pulled 10% of its "
               "bone apart is a dislocated limb"),
