@@ -10,6 +10,11 @@ Prints a table and ends with one JSON line. Figures (all measured in this run):
 - ``reach_error_rel_max``: worst goal error / limb length over goals within 95% of reach;
 - ``chain_solve_us_median``: our solver on a 6-joint arm (``arm_chain_creature(6)``),
   ``ikpy_solve_us_median``: ikpy on the same chain and targets, and their ratio;
+- ``self_collision_us``: what the limb phase's self-collision (``IKParams.self_collision``,
+  off by default until the IK tests pass with it) adds to one solve: median of the same solves with it on minus off,
+  interleaved goal set by goal set; ``reach_error_rel_max_no_self_collision``: the
+  accuracy figure with it off (random reachable poses are drawn without regard to the
+  body, so some put a hand inside the torso, where it now stops at the surface);
 - a per-stage profile of one solve (each stage timed alone in a loop inside numba).
 Requires the ``bench`` extra for ikpy (``pip install ikpy``); without it the ikpy figures
 are null.
@@ -96,7 +101,7 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
             K._place_rigid(P, out_pos, out_rot)
         elif stage == 5:
             K._limb_phase(P, goal_pos, gpw, goal_rot, grw, goal_joint, lp_pos, lp_rest, lp_inv, out_pos, out_rot,
-                          lg_target, lg_jtarget)
+                          lg_target, lg_jtarget, scratch)
     return acc
 
 
@@ -227,6 +232,22 @@ def main(argv=None):
                 continue
             worst = max(worst, float(np.linalg.norm(solver.out_pos[g] - pos[g]) / L))
     compile_and_accuracy_s = time.perf_counter() - t0
+    plan_off = plan_for(c, goal_bodies, IKParams(self_collision=False))
+    solver_off = IKSolver(c, goal_bodies, IKParams(self_collision=False))
+    plan_on = plan_for(c, goal_bodies, IKParams(self_collision=True))
+    solver_on = IKSolver(c, goal_bodies, IKParams(self_collision=True))
+    worst_off = 0.0
+    for pos, rot in sets:
+        fill(solver_off.goals, goal_bodies, pos, rot)
+        solver_off.solve(root_pos, root_rot)
+        for g in goal_bodies:
+            L = c.body_limb_length[g]
+            if g in rigid or L <= 0:
+                continue
+            lr = c.limb_root[c.body_limb[g]]
+            if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
+                continue
+            worst_off = max(worst_off, float(np.linalg.norm(solver_off.out_pos[g] - pos[g]) / L))
 
     # One solve, public entry point, goals varying between calls.
     per_set = max(1, args.solves // len(sets))
@@ -236,6 +257,20 @@ def main(argv=None):
         samples.extend(time_calls(lambda: solve_ik(plan, root_pos, root_rot, solver.goals, solver.out_pos,
                                                    solver.out_rot, solver.scratch), per_set, 1))
     samples = np.array(samples)
+
+    # The self-collision's cost: the same solves with it on and off, interleaved.
+    on_t, off_t = [], []
+    for pos, rot in sets:
+        fill(solver_on.goals, goal_bodies, pos, rot)
+        fill(solver_off.goals, goal_bodies, pos, rot)
+        for _ in range(max(1, per_set // 2)):
+            on_t.extend(time_calls(lambda: solve_ik(plan_on, root_pos, root_rot, solver_on.goals, solver_on.out_pos,
+                                                    solver_on.out_rot, solver_on.scratch), 1, 5))
+            off_t.extend(time_calls(lambda: solve_ik(plan_off, root_pos, root_rot, solver_off.goals,
+                                                     solver_off.out_pos, solver_off.out_rot, solver_off.scratch),
+                                    1, 5))
+    self_collision_us = float(np.median(on_t) - np.median(off_t))
+    ncl = plan_on.arrays.cl_i
 
     # Batched: a crowd sharing the plan.
     nb = args.batch
@@ -266,20 +301,24 @@ def main(argv=None):
         bodies=c.nbody, goals=len(goal_bodies), creature=c.name, ik_bodies=int(plan.ik_bodies.shape[0]),
         solve_us_median=float(np.median(samples)), solve_us_p10=float(np.percentile(samples, 10)),
         solve_us_p90=float(np.percentile(samples, 90)), batch_us_per_solve=batch_us, batch_size=nb,
-        reach_error_rel_max=worst, **chain,
+        reach_error_rel_max=worst, reach_error_rel_max_no_self_collision=worst_off,
+        self_collision_us=self_collision_us, solve_us_median_no_self_collision=float(np.median(off_t)),
+        self_collision_proxies=int(ncl[0]), self_collision_pairs=int(ncl[2]), **chain,
         stage_us={k: round(v, 3) for k, v in stages.items()},
         first_run_s=round(compile_and_accuracy_s, 2), load_average=os.getloadavg()[0],
     )
     print(f"Particle IK on '{c.name}' ({c.nbody} bodies, {len(goal_bodies)} goals: {', '.join(GOAL_NAMES)})")
-    print(f"{'figure':<28}{'value':>14}")
+    print(f"{'figure':<40}{'value':>14}")
     rows = [("solve_us_median", res["solve_us_median"]), ("solve_us_p10", res["solve_us_p10"]),
             ("solve_us_p90", res["solve_us_p90"]), ("batch_us_per_solve", batch_us),
-            ("reach_error_rel_max", worst), ("chain_solve_us_median", chain["chain_solve_us_median"]),
+            ("reach_error_rel_max", worst), ("reach_error_rel_max_no_self_collision", worst_off),
+            ("self_collision_us", self_collision_us), ("self_collision_pairs", int(ncl[2])),
+            ("chain_solve_us_median", chain["chain_solve_us_median"]),
             ("chain_error_max_m", chain["chain_error_max_m"]),
             ("ikpy_solve_us_median", chain["ikpy_solve_us_median"]),
             ("ikpy_error_max_m", chain["ikpy_error_max_m"]), ("speedup_vs_ikpy", chain["speedup_vs_ikpy"])]
     for name, v in rows:
-        print(f"{name:<28}{'n/a' if v is None else f'{v:14.4g}':>14}")
+        print(f"{name:<40}{'n/a' if v is None else f'{v:14.4g}':>14}")
     print("stage profile (us, each stage alone):")
     for k, v in stages.items():
         print(f"  {k:<26}{v:14.3f}")

@@ -26,6 +26,8 @@ from numba import njit
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
+from engine.ik import _collide
+
 # -- the plan layout ------------------------------------------------------------------
 # (name, width): width 1 fields are 1-D, 3 and 4 are (n, 3) / (n, 4). The order here is
 # the order of the blob and of ``PlanArrays``; ``_unpack`` below follows it by hand and a
@@ -73,6 +75,7 @@ INT_FIELDS = (
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
                            # body's goal held at its origin (self-delegated), else -1
     "scratch_layout",      # (12,) first row of each scratch block (see ``_scratch_views``)
+    "cl_i",                # self-collision proxies and pairs (engine/ik/_collide.py)
 )
 FLOAT_FIELDS = (
     ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
@@ -101,6 +104,7 @@ FLOAT_FIELDS = (
     ("goal_reach", 1),     # (ngoal,) reach of the goal particle from the limb root particle, m
     ("goal_reachj", 1),    # (ngoal,) reach of the goal body's joint particle (when tipped), m
     ("params", 1),         # see P_* below
+    ("cl_f", 1),           # self-collision proxies and pairs (engine/ik/_collide.py)
 )
 FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
 NINT = len(INT_FIELDS)
@@ -523,7 +527,7 @@ def unpack(pi, pf, pf3, pf4):
         _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
         _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
-        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47), _i(pi, 48),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47), _i(pi, 48), _i(pi, 49),
         # floats
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
         _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7), _f(pi, pf, 8), _f(pi, pf, 9),
@@ -533,7 +537,7 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf, 25), _f(pi, pf3, 26), _f(pi, pf4, 27), _f(pi, pf3, 28), _f(pi, pf4, 29),
         _f(pi, pf3, 30), _f(pi, pf3, 31), _f(pi, pf4, 32), _f(pi, pf, 33), _f(pi, pf, 34),
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
-        _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42),
+        _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42), _f(pi, pf, 43),
     )
 
 
@@ -894,7 +898,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
 
 @njit(cache=True, _nrt=False, inline="always")
 def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
-                out_pos, out_rot, lg_target, lg_jtarget):
+                out_pos, out_rot, lg_target, lg_jtarget, scratch):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
     recursively with weighted goal averages, branches), constraint iterations, then
     positions by outward projection and orientations by minimal twist from the rest pose
@@ -996,6 +1000,8 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
                   int(prm[P_LIMB_INNER]))
     _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
+    if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
+        _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
@@ -1246,7 +1252,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
         if moved <= 1e-7:
             break
     _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
-                out_pos, out_rot, lg_target, lg_jtarget)
+                out_pos, out_rot, lg_target, lg_jtarget, scratch)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -1349,7 +1355,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 49 + 43
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 44
 
 
 _check_layout()

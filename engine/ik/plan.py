@@ -23,6 +23,7 @@ import numpy as np
 
 from engine.errors import DataError
 from engine.ik import _kernels as K
+from engine.ik import selfcollision
 from engine.model.caps import FOOT, HEAD, MOUTH
 
 
@@ -59,6 +60,8 @@ class IKParams:
     straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
     fork_splay: float = 0.15      # splay hint for planar forks (branching legs), fraction of the fork's segment
     spline_regularization: float = 1e-3
+    self_collision: bool = False  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
+    self_collision_rounds: int = 2  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
@@ -85,7 +88,8 @@ class IKParams:
             if not np.isfinite(value) or value < 0:
                 raise IKError(f"IK parameter must be a finite number >= 0, got {value!r}", field=name,
                               subject=None)
-        for name in ("spine_outer", "spine_inner", "limb_outer", "limb_inner", "transport_substeps"):
+        for name in ("spine_outer", "spine_inner", "limb_outer", "limb_inner", "transport_substeps",
+                     "self_collision_rounds"):
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:
                 raise IKError(f"must be a whole number >= 1, got {getattr(self, name)!r}", field=name)
         if not 0.0 < self.soft_slope <= 1.0:
@@ -735,7 +739,10 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
     )
-    fields["_scratch_size"] = int(sum(sizes))
+    fields["cl_i"], fields["cl_f"], cl_rows = selfcollision.build(
+        c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
+        prm.self_collision_rounds, int(sum(sizes)))
+    fields["_scratch_size"] = int(sum(sizes)) + cl_rows
     info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies)
     return fields, info
 

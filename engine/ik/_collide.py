@@ -1,0 +1,386 @@
+"""Self-collision kernel of the limb phase (issue 16; Hecker et al. 2008 section 4.3 call
+the missing collisions "clearly a flaw": arms through bellies, no hug).
+
+Every body of the creature has a capsule proxy (``engine.ik.selfcollision`` builds them
+from the bodies' boxes when the plan is built). A proxy is carried rigidly by a *carrier*
+body that is already posed when the limb phase starts (a spine body, the root, or the
+spine body a limb hangs off), and, for a body the limb phase moves, swung with the bone
+between two limb particles (its *pivot* particle at the body's joint and its *direction*
+particle at its child joint or tip) the way the limb rebuild swings the body: the rest
+pose carried by the attach body, then the shortest arc taking the rest bone onto the
+posed one. Pairs (not parent and child, not both fixed, not riding the same bone) whose
+capsules overlap deeper than they do in the rest pose push their bones' particles apart
+along the contact normal, split by where the contact lies on each bone (a position-based
+edge contact), then the limbs get their lengths back by the same outward projection as
+the rebuild. ``rounds`` times, after the constraint iterations and before the rebuild:
+a limb that would enter the torso or another limb is pushed out along the surface, a goal
+inside another body is met at its surface.
+
+Layout (one int32 and one float64 field of the plan, see ``engine.ik.selfcollision``):
+``cl_i`` = [nprox, nmove, npair, work_row, rounds, then per proxy (carrier, pivot, dir),
+then per pair (a, b)]; movers come first (pivot >= 0). ``cl_f`` = per proxy (a (3), b (3)
+in the carrier's frame, radius, bound = half length + radius), then per pair the rest
+pose's own overlap (m), which is allowed, and the square of the distance between the
+two capsules' middles beyond which they cannot touch. Work rows in the scratch: ``W``
+per proxy (the world ends of its capsule, their middle, a mover's rest offsets), then
+one per limb particle (the pass's summed pushes, zero between passes).
+
+Like ``engine.ik._kernels`` (whose stage calls this one, inlined), everything is compiled
+without reference counts and touches no heap; the small tuple algebra is repeated here
+so this module does not import the solver's.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+EPS = 1e-12
+NI_HEAD = 5      # ints before the per-proxy records
+NI_PROX = 3      # ints per proxy
+NF_PROX = 8      # floats per proxy
+W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
+MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _v3(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _set3(a, i, v):
+    a[i, 0] = v[0]
+    a[i, 1] = v[1]
+    a[i, 2] = v[2]
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _scale(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _rot(q, v):
+    """Rotate v by the unit quaternion q = (w, x, y, z)."""
+    w = q[0]
+    u = (q[1], q[2], q[3])
+    t = _scale(_cross(u, v), 2.0)
+    return _add(_add(v, _scale(t, w)), _cross(u, t))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _between(u, v):
+    """Shortest-arc rotation taking u to v (the solver's ``qbetween``, same singular axis)."""
+    nu = math.sqrt(_dot(u, u))
+    nv = math.sqrt(_dot(v, v))
+    if nu < EPS or nv < EPS:
+        return (1.0, 0.0, 0.0, 0.0)
+    a = _scale(u, 1.0 / nu)
+    b = _scale(v, 1.0 / nv)
+    d = _dot(a, b)
+    if d < -1.0 + 1e-12:
+        axis = _cross(a, (1.0, 0.0, 0.0))
+        if _dot(axis, axis) < 1e-12:
+            axis = _cross(a, (0.0, 1.0, 0.0))
+        n = math.sqrt(_dot(axis, axis))
+        return (0.0, axis[0] / n, axis[1] / n, axis[2] / n)
+    c = _cross(a, b)
+    q = (1.0 + d, c[0], c[1], c[2])
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _clamp01(x):
+    return min(max(x, 0.0), 1.0)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _closest_params(p1, q1, p2, q2):
+    """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson,
+    Real-Time Collision Detection 5.1.9), made continuous where the segments turn
+    parallel: there the closest pair is not unique and the textbook answer jumps from
+    one end to the other, so below 6 degrees the parameter fades to the middle of the
+    segments' overlap (the pushes stay smooth as two forearms or palms line up)."""
+    d1 = _sub(q1, p1)
+    d2 = _sub(q2, p2)
+    r = _sub(p1, p2)
+    a = _dot(d1, d1)
+    e = _dot(d2, d2)
+    f = _dot(d2, r)
+    if a <= EPS and e <= EPS:
+        return 0.0, 0.0
+    if a <= EPS:
+        return 0.0, _clamp01(f / e)
+    c = _dot(d1, r)
+    if e <= EPS:
+        return _clamp01(-c / a), 0.0
+    b = _dot(d1, d2)
+    denom = a * e - b * b
+    # middle of the overlap of segment 2 projected on segment 1
+    s0 = _clamp01(-c / a)
+    s1 = _clamp01((b - c) / a)
+    s_mid = 0.5 * (s0 + s1)
+    sin2 = denom / (a * e)
+    if sin2 > 1e-12:
+        s = _clamp01((b * f - c * e) / denom)
+    else:
+        s = s_mid
+    if sin2 < 0.01:
+        x = sin2 / 0.01
+        k = x * x * (3.0 - 2.0 * x)
+        s = s_mid + k * (s - s_mid)
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = _clamp01(-c / a) if sin2 >= 0.01 else s
+    elif t > 1.0:
+        t = 1.0
+        s = _clamp01((b - c) / a) if sin2 >= 0.01 else s
+    return s, t
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _qmul(a, b):
+    return (a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+            a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+            a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+            a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _q4(a, i):
+    return (a[i, 0], a[i, 1], a[i, 2], a[i, 3])
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _nlerp(a, b, t):
+    if a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0:
+        b = (-b[0], -b[1], -b[2], -b[3])
+    q = (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]), a[3] + t * (b[3] - a[3]))
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if n < EPS:
+        return a
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
+
+
+@njit(cache=True, _nrt=False)
+def closest_params(p1, q1, p2, q2):
+    """``_closest_params`` as a plain kernel (for the plan builder and tests)."""
+    return _closest_params(p1, q1, p2, q2)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+    """World ends of proxy k's capsule into its two work rows. A fixed proxy rides its
+    carrier; a mover rides its bone's body as the limb rebuild will pose it: the rest
+    rotation swung onto the posed bone, turned toward the body's rotation goal by its
+    weight (a hand held by a rotation goal hangs at its wrist as the goal says)."""
+    h = NI_HEAD + NI_PROX * k
+    s = cl_i[h]
+    i = cl_i[h + 1]
+    f = NF_PROX * k
+    la = (cl_f[f], cl_f[f + 1], cl_f[f + 2])
+    lb = (cl_f[f + 3], cl_f[f + 4], cl_f[f + 5])
+    if i < 0:
+        ps = _v3(out_pos, s)
+        rs = _q4(out_rot, s)
+        a = _add(ps, _rot(rs, la))
+        b = _add(ps, _rot(rs, lb))
+        _set3(work, W * k, a)
+        _set3(work, W * k + 1, b)
+        _set3(work, W * k + 2, _scale(_add(a, b), 0.5))
+        return
+    c = cl_i[h + 2]
+    pi = _v3(lp_pos, i)
+    sw = _between(_sub(_v3(lp_rest, c), _v3(lp_rest, i)), _sub(_v3(lp_pos, c), pi))
+    b = P.lp_body[i]
+    wr = min(max(goal_rot_w[b], 0.0), 1.0)
+    if wr > 0.0:
+        rot = _nlerp(_qmul(sw, _qmul(_q4(out_rot, s), _q4(P.lp_rot_local, i))), _q4(goal_rot, b), wr)
+        a = _add(pi, _rot(rot, la))
+        bb = _add(pi, _rot(rot, lb))
+    else:  # the rest-posed offsets were turned once (``_prepare``)
+        a = _add(pi, _rot(sw, _v3(work, W * k + 3)))
+        bb = _add(pi, _rot(sw, _v3(work, W * k + 4)))
+    _set3(work, W * k, a)
+    _set3(work, W * k + 1, bb)
+    _set3(work, W * k + 2, _scale(_add(a, bb), 0.5))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _prepare(P, cl_i, cl_f, k, work, out_rot):
+    """A mover's capsule ends relative to its pivot in the rest pose carried by its attach
+    body: fixed during the limb phase, so turned once per solve."""
+    h = NI_HEAD + NI_PROX * k
+    s = cl_i[h]
+    i = cl_i[h + 1]
+    f = NF_PROX * k
+    rest = _qmul(_q4(out_rot, s), _q4(P.lp_rot_local, i))
+    _set3(work, W * k + 3, _rot(rest, (cl_f[f], cl_f[f + 1], cl_f[f + 2])))
+    _set3(work, W * k + 4, _rot(rest, (cl_f[f + 3], cl_f[f + 4], cl_f[f + 5])))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _bone_weight(lp_pos, i, c, q):
+    """Share of a push at point q taken by the bone's direction particle (the pivot takes
+    the rest): where q projects on the bone, clamped to it."""
+    pi = _v3(lp_pos, i)
+    d = _sub(_v3(lp_pos, c), pi)
+    dd = _dot(d, d)
+    if dd < EPS:
+        return 0.5
+    return _clamp01(_dot(_sub(q, pi), d) / dd)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _nudge(delta, i, v):
+    delta[i, 0] += v[0]
+    delta[i, 1] += v[1]
+    delta[i, 2] += v[2]
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+    """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
+    particles apart along the contact normal. The pushes are summed and applied after the
+    pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
+    left and right stay mirror images. Returns how many pairs pushed."""
+    nprox = cl_i[0]
+    nmove = cl_i[1]
+    npair = cl_i[2]
+    lp_parent = P.lp_parent
+    lp_body = P.lp_body
+    pair0 = NI_HEAD + NI_PROX * nprox
+    allow0 = NF_PROX * nprox
+    for k in range(nmove):
+        _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    nlp = lp_pos.shape[0]
+    delta = work[W * nprox:W * nprox + nlp]
+    pushed = 0
+    for p in range(npair):
+        ka = cl_i[pair0 + 2 * p]
+        kb = cl_i[pair0 + 2 * p + 1]
+        fa = NF_PROX * ka
+        fb = NF_PROX * kb
+        # bounding spheres first (most pairs are far apart)
+        dx = work[W * ka + 2, 0] - work[W * kb + 2, 0]
+        dy = work[W * ka + 2, 1] - work[W * kb + 2, 1]
+        dz = work[W * ka + 2, 2] - work[W * kb + 2, 2]
+        if dx * dx + dy * dy + dz * dz >= cl_f[allow0 + 2 * p + 1]:
+            continue
+        allowed = cl_f[allow0 + 2 * p]
+        a0 = _v3(work, W * ka)
+        a1 = _v3(work, W * ka + 1)
+        b0 = _v3(work, W * kb)
+        b1 = _v3(work, W * kb + 1)
+        s, t = _closest_params(a0, a1, b0, b1)
+        qa = _add(a0, _scale(_sub(a1, a0), s))
+        qb = _add(b0, _scale(_sub(b1, b0), t))
+        d = _sub(qa, qb)
+        dist = math.sqrt(_dot(d, d))
+        pen = cl_f[fa + 6] + cl_f[fb + 6] - dist - allowed
+        if pen <= 0.0:
+            continue
+        if dist > 1e-9:
+            n = _scale(d, 1.0 / dist)
+        else:  # axes crossing: push across both
+            n = _cross(_sub(a1, a0), _sub(b1, b0))
+            if _dot(n, n) < EPS:
+                n = _cross(_sub(a1, a0), (0.0, 0.0, 1.0))
+                if _dot(n, n) < EPS:
+                    n = (1.0, 0.0, 0.0)
+            n = _scale(n, 1.0 / math.sqrt(_dot(n, n)))
+        ha = NI_HEAD + NI_PROX * ka
+        hb = NI_HEAD + NI_PROX * kb
+        ia, ca = cl_i[ha + 1], cl_i[ha + 2]
+        ib, cb = cl_i[hb + 1], cl_i[hb + 2]
+        denom = 0.0
+        # weights of the pivot (1 - u) and direction (u) particles; a body held by a
+        # rotation goal is moved whole (both particles alike) as far as the goal holds it
+        ua = 0.0
+        ub = 0.0
+        va = 0.0
+        vb = 0.0
+        if ia >= 0:
+            wr = min(max(goal_rot_w[lp_body[ia]], 0.0), 1.0)
+            u = _bone_weight(lp_pos, ia, ca, qa)
+            va = (0.0 if lp_parent[ia] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
+            ua = (1.0 - wr) * u + wr
+            denom += va * va + ua * ua
+        if ib >= 0:
+            wr = min(max(goal_rot_w[lp_body[ib]], 0.0), 1.0)
+            u = _bone_weight(lp_pos, ib, cb, qb)
+            vb = (0.0 if lp_parent[ib] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
+            ub = (1.0 - wr) * u + wr
+            denom += vb * vb + ub * ub
+        lam = pen / max(denom, MIN_DENOM)
+        if ia >= 0:
+            _nudge(delta, ia, _scale(n, lam * va))
+            _nudge(delta, ca, _scale(n, lam * ua))
+        if ib >= 0:
+            _nudge(delta, ib, _scale(n, -lam * vb))
+            _nudge(delta, cb, _scale(n, -lam * ub))
+
+        pushed += 1
+    if pushed:
+        for i in range(nlp):
+            for j in range(3):
+                lp_pos[i, j] += delta[i, j]
+                delta[i, j] = 0.0
+    return pushed
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+    """The limb phase's self-collision step (after its constraint iterations, before its
+    rebuild): ``rounds`` times update the proxies, push overlapping pairs apart, and give
+    the limbs their lengths back by outward projection (as the rebuild does)."""
+    cl_i = P.cl_i
+    cl_f = P.cl_f
+    nprox = cl_i[0]
+    nmove = cl_i[1]
+    w0 = cl_i[3]
+    work = scratch[w0:w0 + W * nprox + lp_pos.shape[0]]
+    for k in range(nmove):
+        _prepare(P, cl_i, cl_f, k, work, out_rot)
+    for k in range(nmove, nprox):   # fixed proxies: posed once
+        _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    nlp = P.lp_body.shape[0]
+    for _round in range(cl_i[4]):
+        if _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot) == 0:
+            break
+        for i in range(nlp):
+            c = P.lp_con[i]
+            if c < 0:
+                continue
+            par = P.lp_parent[i]
+            d = _sub(_v3(lp_pos, i), _v3(lp_pos, par))
+            L = math.sqrt(_dot(d, d))
+            if L < EPS:
+                continue
+            Lc = min(max(L, P.lc_plo[c] * P.lc_len[c]), P.lc_phi[c] * P.lc_len[c])
+            if Lc != L:
+                _set3(lp_pos, i, _add(_v3(lp_pos, par), _scale(d, Lc / L)))

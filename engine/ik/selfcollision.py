@@ -1,0 +1,132 @@
+"""Static part of the limb phase's self-collision (issue 16), built with the plan: one
+capsule proxy per body and the list of pairs to test. The kernel is
+``engine.ik._collide``; its layout is documented there.
+
+Proxy of a body: a capsule along its box's longest axis, radius the mean of the two other
+half-extents (a flat box, a palm or a slab of torso, is neither inflated to its width
+nor shrunk to its thickness), the capsule's ends inside the box's ends. Carried by:
+
+- a body the limb phase moves (a limb body in the IK sub-tree): its bone, from its joint
+  particle to its child or tip particle; a body rigid on its parent in the limb phase
+  (no child particle of its own) and a free body (no IK, placed by the caller) below a
+  limb body ride on the nearest such bone above them;
+- any other body (the spine, the root, delegated heads and mouths, and free bodies
+  below them): its nearest posed ancestor, fixed during the limb phase.
+
+Pairs: every two bodies that are not parent and child (the validation grid's
+``self_intersection`` tests the same pairs), skipping pairs that cannot move apart in the
+limb phase (both fixed, or both on the same bone). Each pair may overlap as deeply as its
+proxies do in the rest pose (creatures are built with boxes overlapping at a shoulder or
+a neck: that is theirs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from engine.ik import _collide as C
+
+
+def _qrot(q, v):
+    w, x, y, z = q
+    u = np.array([x, y, z])
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def _qconj(q):
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def capsule_of_box(extent):
+    """(axis index, half length of the segment, radius) of a box's capsule proxy."""
+    e = np.asarray(extent, np.float64)
+    k = int(np.argmax(e))
+    others = np.delete(e, k)
+    r = float(np.mean(others))
+    r = min(r, float(e[k]))
+    return k, max(float(e[k]) - r, 0.0), r
+
+
+def _rest_segment(c, body):
+    """World (root-relative rest) ends of a body's capsule and its radius."""
+    k, h, r = capsule_of_box(c.body_extent[body])
+    axis = np.zeros(3)
+    axis[k] = 1.0
+    q = c.body_rootrel_rot[body]
+    centre = c.body_rootrel_pos[body]
+    d = _qrot(q, axis) * h
+    return centre - d, centre + d, r
+
+
+def closest_distance(a0, a1, b0, b1):
+    s, t = C.closest_params((a0[0], a0[1], a0[2]), (a1[0], a1[1], a1[2]),
+                            (b0[0], b0[1], b0[2]), (b1[0], b1[1], b1[2]))
+    return float(np.linalg.norm((a0 + s * (a1 - a0)) - (b0 + t * (b1 - b0))))
+
+
+def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: int, work_row: int):
+    """(cl_i int32, cl_f float64, work rows) for one plan. ``enabled`` False gives empty
+    fields (nothing is tested: the solve is the one without self-collision)."""
+    n = c.nbody
+    parent = c.body_parent
+    if not enabled or n < 3:
+        return np.array([0, 0, 0, work_row, 0], np.int32), np.zeros(0), 0
+    # The bone each limb body swings with: (pivot particle, direction particle).
+    bone_of = {}
+    for i in range(len(lp_body)):
+        if lp_mode[i] == 3 or lp_c1[i] < 0 or lp_mode[i] == 2:
+            continue
+        bone_of[int(lp_body[i])] = (i, int(lp_c1[i]))
+    limb_bodies = {int(lp_body[i]) for i in range(len(lp_body)) if lp_mode[i] != 3}
+
+    def owner(b):
+        """(carrier body, pivot, dir, frame body) of body b's proxy."""
+        o = b
+        while o > 0 and (not has_ik[o] or (o in limb_bodies and o not in bone_of)):
+            o = int(parent[o])
+        if o in bone_of:
+            i, d = bone_of[o]
+            return int(lp_attach[i]), i, d, o
+        return o, -1, -1, o
+
+    owners = [owner(b) for b in range(n)]
+    segs = [_rest_segment(c, b) for b in range(n)]
+    order = [b for b in range(n) if owners[b][1] >= 0] + [b for b in range(n) if owners[b][1] < 0]
+    slot = {b: k for k, b in enumerate(order)}
+    nmove = sum(1 for b in range(n) if owners[b][1] >= 0)
+    ints = [len(order), nmove, 0, work_row, int(rounds)]
+    floats = []
+    for b in order:
+        s, i, d, o = owners[b]
+        a0, a1, r = segs[b]
+        # a fixed proxy in its carrier's frame about the carrier's origin; a mover in its
+        # bone body's frame about that body's joint (its pivot particle)
+        qs = _qconj(c.body_rootrel_rot[o])
+        ps = c.body_rootrel_joint[o] if i >= 0 else c.body_rootrel_pos[o]
+        ints += [s, i, d]
+        floats += list(_qrot(qs, a0 - ps)) + list(_qrot(qs, a1 - ps))
+        floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]   # bounding radius about the middle
+    pairs = []
+    allowed = []
+    for a in range(n):
+        for b in range(a + 1, n):
+            if parent[b] == a or parent[a] == b:
+                continue
+            oa, ob = owners[a], owners[b]
+            if oa[1] < 0 and ob[1] < 0:
+                continue          # neither moves in the limb phase
+            if oa == ob:
+                continue          # rigid on the same bone
+            a0, a1, ra = segs[a]
+            b0, b1, rb = segs[b]
+            pairs.append((slot[a], slot[b]))
+            allow = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1))
+            reach = floats[C.NF_PROX * slot[a] + 7] + floats[C.NF_PROX * slot[b] + 7] - allow
+            allowed += [allow, max(reach, 0.0) ** 2]
+    ints[2] = len(pairs)
+    for p in pairs:
+        ints += list(p)
+    cl_i = np.array(ints, np.int32)
+    cl_f = np.array(floats + allowed, np.float64)
+    return cl_i, cl_f, C.W * len(order) + len(lp_body)
