@@ -276,7 +276,7 @@ h1{font-size:20px;margin:0 0 8px} h2{font-size:16px;margin:18px 0 6px}
 #summary{display:flex;flex-wrap:wrap;gap:6px;margin:6px 0}
 #summary div{background:#fff;border:1px solid #ddd;border-radius:4px;padding:3px 8px;font-size:12px}
 #summary div b{display:block;font-size:15px}
-.columns{display:flex;gap:24px;align-items:flex-start} .side{max-width:760px}
+.columns{display:flex;flex-wrap:wrap;gap:24px;align-items:flex-start} .side{max-width:760px}
 table.matrix{border-collapse:collapse;font-size:11px}
 table.matrix th{position:sticky;top:0;background:#fafafa;z-index:1;padding:2px;vertical-align:bottom}
 table.matrix th.col div{writing-mode:vertical-rl;transform:rotate(180deg);white-space:nowrap;max-height:120px}
