@@ -25,17 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from engine.ik import _collide as C
-
-
-def _qrot(q, v):
-    w, x, y, z = q
-    u = np.array([x, y, z])
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
-def _qconj(q):
-    return np.array([q[0], -q[1], -q[2], -q[3]])
+from engine.mathx import quat_conj, quat_rotate
 
 
 def capsule_of_box(extent):
@@ -55,7 +45,7 @@ def _rest_segment(c, body):
     axis[k] = 1.0
     q = c.body_rootrel_rot[body]
     centre = c.body_rootrel_pos[body]
-    d = _qrot(q, axis) * h
+    d = quat_rotate(q, axis) * h
     return centre - d, centre + d, r
 
 
@@ -102,10 +92,10 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         a0, a1, r = segs[b]
         # a fixed proxy in its carrier's frame about the carrier's origin; a mover in its
         # bone body's frame about that body's joint (its pivot particle)
-        qs = _qconj(c.body_rootrel_rot[o])
+        qs = quat_conj(c.body_rootrel_rot[o])
         ps = c.body_rootrel_joint[o] if i >= 0 else c.body_rootrel_pos[o]
         ints += [s, i, d]
-        floats += list(_qrot(qs, a0 - ps)) + list(_qrot(qs, a1 - ps))
+        floats += list(quat_rotate(qs, a0 - ps)) + list(quat_rotate(qs, a1 - ps))
         floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]   # bounding radius about the middle
     pairs = []
     allowed = []

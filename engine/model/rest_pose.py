@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from engine.mathx import quat_mul, quat_rotate
+
 #: Where an arm turns: this fraction of its chain length from the grasper.
 SHOULDER_FRACTION = 0.78
 #: Arms within this angle of straight down (radians) are left as they are.
@@ -45,19 +47,6 @@ def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.array([0.0, *perp])
     q = np.array([1.0 + c, *axis])
     return q / np.linalg.norm(q)
-
-
-def _qmul(a, b):
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
-
-
-def _qrot(q, v):
-    u = q[1:]
-    t = 2.0 * np.cross(u, v)
-    return v + q[0] * t + np.cross(u, t)
 
 
 def relax_arms(parent, caps, joint, pos, rot):
@@ -120,10 +109,10 @@ def relax_arms(parent, caps, joint, pos, rot):
         stack = [s]
         while stack:
             b = stack.pop()
-            joint[b] = joint[s] + _qrot(q, joint[b] - joint[s])
-            pos[b] = joint[s] + _qrot(q, pos[b] - joint[s])
-            rot[b] = _qmul(q, rot[b])
-            delta[b] = _qmul(q, delta[b])
+            joint[b] = joint[s] + quat_rotate(q, joint[b] - joint[s])
+            pos[b] = joint[s] + quat_rotate(q, pos[b] - joint[s])
+            rot[b] = quat_mul(q, rot[b])
+            delta[b] = quat_mul(q, delta[b])
             stack.extend(children[b])
         turned.append((g, s, float(np.degrees(angle))))
     rot /= np.linalg.norm(rot, axis=1, keepdims=True)
