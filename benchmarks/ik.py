@@ -198,6 +198,24 @@ def chain_benchmark(n_targets, rng, with_ikpy):
     return res
 
 
+def _worst_reach_error(c, solver, goal_bodies, rigid, sets, root_pos, root_rot) -> float:
+    """Largest position miss over the goal sets, relative to the limb's length, of the
+    goals within 95% of their limb's reach."""
+    worst = 0.0
+    for pos, rot in sets:
+        fill(solver.goals, goal_bodies, pos, rot)
+        solver.solve(root_pos, root_rot)
+        for g in goal_bodies:
+            L = c.body_limb_length[g]
+            if g in rigid or L <= 0:
+                continue
+            lr = c.limb_root[c.body_limb[g]]
+            if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
+                continue
+            worst = max(worst, float(np.linalg.norm(solver.out_pos[g] - pos[g]) / L))
+    return worst
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--solves", type=int, default=4000, help="timed single solves")
@@ -219,35 +237,13 @@ def main(argv=None):
     # Accuracy over random reachable goal sets (goals within 95% of their limb's reach).
     t0 = time.perf_counter()
     sets = make_goal_sets(c, goal_bodies, rigid, 300, rng)
-    worst = 0.0
-    for pos, rot in sets:
-        fill(solver.goals, goal_bodies, pos, rot)
-        solver.solve(root_pos, root_rot)
-        for g in goal_bodies:
-            L = c.body_limb_length[g]
-            if g in rigid or L <= 0:
-                continue
-            lr = c.limb_root[c.body_limb[g]]
-            if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
-                continue
-            worst = max(worst, float(np.linalg.norm(solver.out_pos[g] - pos[g]) / L))
+    worst = _worst_reach_error(c, solver, goal_bodies, rigid, sets, root_pos, root_rot)
     compile_and_accuracy_s = time.perf_counter() - t0
     plan_off = plan_for(c, goal_bodies, IKParams(self_collision=False))
     solver_off = IKSolver(c, goal_bodies, IKParams(self_collision=False))
     plan_on = plan_for(c, goal_bodies, IKParams(self_collision=True))
     solver_on = IKSolver(c, goal_bodies, IKParams(self_collision=True))
-    worst_off = 0.0
-    for pos, rot in sets:
-        fill(solver_off.goals, goal_bodies, pos, rot)
-        solver_off.solve(root_pos, root_rot)
-        for g in goal_bodies:
-            L = c.body_limb_length[g]
-            if g in rigid or L <= 0:
-                continue
-            lr = c.limb_root[c.body_limb[g]]
-            if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
-                continue
-            worst_off = max(worst_off, float(np.linalg.norm(solver_off.out_pos[g] - pos[g]) / L))
+    worst_off = _worst_reach_error(c, solver_off, goal_bodies, rigid, sets, root_pos, root_rot)
 
     # One solve, public entry point, goals varying between calls.
     per_set = max(1, args.solves // len(sets))
