@@ -276,11 +276,11 @@ def test_t_pose_arms_hang_down_in_the_relaxed_rest():
         if b.name in ("foot.l", "head", "pelvis", "clavicle.l"):
             np.testing.assert_allclose(b.pos, b0[b.name].pos, atol=1e-12)
     # rest_delta undoes it: the file's box rotations come back.
-    from engine.model.rest_pose import _qmul
+    from engine.mathx import quat_mul
 
     k = [b.name for b in relaxed.cdef.bodies].index("lowerarm.l")
     dq = relaxed.rest_delta[k] * np.array([1, -1, -1, -1])
-    back = _qmul(dq, np.array(relaxed.cdef.bodies[k].rot))
+    back = quat_mul(dq, np.array(relaxed.cdef.bodies[k].rot, dtype=float))
     assert abs(abs(np.dot(back, tpose.cdef.bodies[k].rot)) - 1) < 1e-9
 
 
