@@ -4,7 +4,7 @@ dropped), imported again, and the counts a person gives (legs, arms, heads, tail
 wings as chains) compared with the creature's own. Names are kept because real files have
 them; ``--scramble`` renames every joint ``j0, j1, ...`` so the shape alone decides.
 
-    .venv/bin/python benchmarks/shape_caps_check.py [--scramble] [--random N]
+    .venv/bin/python benchmarks/shape_caps_check.py [--scramble] [--random N] [--first-seed S]
 """
 
 from __future__ import annotations
@@ -42,13 +42,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--scramble", action="store_true")
     ap.add_argument("--random", type=int, default=0)
+    ap.add_argument("--first-seed", type=int, default=0, help="first random seed (default 0)")
     args = ap.parse_args(argv)
     from engine.model import build_creature
     from engine.model.random import random_creature_def
     from engine.paths import LIBRARY_CREATURES
 
     creatures = [engine.load_creature(p) for p in sorted(LIBRARY_CREATURES.glob("*.yaml"))]
-    creatures += [build_creature(random_creature_def(s)) for s in range(args.random)]
+    creatures += [build_creature(random_creature_def(s)) for s in range(args.first_seed, args.first_seed + args.random)]
     keys = ["legs", "arms", "heads", "tails", "wings"]
     exact = {k: 0 for k in keys}
     rows = []

@@ -125,6 +125,45 @@ def test_captures_get_legs_arms_head_from_shape(name):
     assert (k["legs"], k["arms"], k["heads"], k["tails"]) == (2, 2, 1, 0)
 
 
+#: Library creatures of kinds no shared rig covers, written as bare BVH skeletons with every
+#: joint renamed j0, j1, ...: a person's counts (legs, arms, heads, tail chains).
+SHAPE_ONLY = {
+    "twoheaded": (2, 2, 2, 0),    # two heads on necks off one chest
+    "forkstrider": (4, 2, 1, 0),  # each leg forks into two feet
+    "crab": (8, 2, 1, 0),         # legs and claws hang off the carapace, which is the head
+    "scorpion": (8, 2, 1, 1),     # the tail curls up over the back; the head is in front
+    "mantis": (4, 2, 1, 0),       # a small head on a long prothorax with raptorial arms
+    "octopus": (0, 8, 1, 0),      # arms lying out over the ground are not legs
+    "tripod": (3, 0, 1, 0),       # the front leg is on the sagittal plane
+    "threearmed": (2, 3, 1, 0),   # a third arm with no mirror partner
+    "elephant": (4, 1, 1, 1),     # the trunk is an arm
+}
+
+
+@pytest.mark.parametrize("name", sorted(SHAPE_ONLY))
+def test_held_back_skeletons_get_a_persons_counts_from_shape_alone(tmp_path, name):
+    import engine
+    from engine.io.bake import recording_to_bvh
+    from engine.io.bvh import BvhClip, save_bvh
+    from engine.io.bvh_creature import creature_from_bvh
+    from engine.io.gltf_export import Recording
+    from engine.model.caps import CAP_BIT
+    from engine.paths import LIBRARY_CREATURES
+
+    c = engine.load_creature(LIBRARY_CREATURES / f"{name}.yaml")
+    clip = recording_to_bvh(c, Recording("rest", 30.0, c.body_rest_pos[None].copy(), c.body_rest_rot[None].copy()))
+    clip = BvhClip(joint_names=tuple(f"j{i}" for i in range(clip.njoint)), joint_parent=clip.joint_parent,
+                   joint_offset=clip.joint_offset, joint_channels=clip.joint_channels,
+                   joint_end_site=clip.joint_end_site, frame_time=clip.frame_time, motion=clip.motion)
+    save_bvh(clip, tmp_path / f"{name}.bvh")
+    back = creature_from_bvh(tmp_path / f"{name}.bvh", scale=0.01, rest="file")
+    k = back.counts()
+    tail = (back.body_caps & CAP_BIT["tail"]) != 0
+    tails = int(sum(1 for i in range(back.nbody) if tail[i] and not (back.body_parent[i] >= 0
+                                                                      and tail[back.body_parent[i]])))
+    assert (k["legs"], k["arms"], k["heads"], tails) == SHAPE_ONLY[name], (name, k, tails)
+
+
 def test_character_creator_names_get_their_limbs(tmp_path):
     """A capture with Character Creator joint names (CC_Base_...): names say nothing the table
     knows, the shape says two legs, two arms, a head."""

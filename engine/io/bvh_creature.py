@@ -95,7 +95,7 @@ DEFAULT_CAPS_TABLE: dict[str, list[str]] = {
     rf"{_PRE}eye{_SEP}\d*{_POST}": ["eye"],
     rf"{_PRE}ear{_SEP}\d*{_POST}": ["ear"],
     rf"tail{_SEP}\d*": ["tail"],
-    rf"{_PRE}wing{_SEP}\d*{_POST}": ["wing"],
+    rf"{_PRE}wing(?:{_SEP}?[a-z]+)?{_SEP}\d*{_POST}": ["wing"],  # Wing, wing_2, WingArm, winghumerus
     # Legs. (A sided "hip" is a leg joint: LeftHip; the unsided one is the pelvis, above.)
     rf"{_PRE}(?:hip{_SEP}joint|pelvis){_POST}": ["limb"],
     rf"{_PRE}(?:up{_SEP}leg|upper{_SEP}leg|thigh|hip|femur){_POST}": ["limb"],

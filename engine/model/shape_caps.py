@@ -10,32 +10,45 @@ creature standing on z = 0:
 1. **Sagittal bodies**: the root and every body whose parent is sagittal and that is not
    *sided*. A body is sided when it lies off the plane (joint or box centre beyond
    ``SIDE_FRACTION`` x size) and has a mirror partner (a body at its reflection within
-   ``MIRROR_FRACTION`` x size): a coiled snake's body is off the plane but has none. A
-   link whose only child is sided is sided too. Sided bodies hang off as *side chains*.
-2. **Head and spine**: among the ends of sagittal chains, the head is the one that lies
-   highest and furthest forward (largest x + z relative to the root, by the far end of its
-   box); small bodies past it (a jaw, a tongue: under ``HEAD_TRIM_RATIO`` of the body
-   before) are trimmed off. The spine runs from the head back to the farthest sagittal body
-   that carries a side chain (a quadruped's hips when the file's root is its chest; the
-   root when nothing does), then on up to the file's root.
+   ``MIRROR_FRACTION`` x size): a coiled snake's body is off the plane but has none. Small
+   bodies (eyes on a head) are sided at the scale of their own bone
+   (``LOCAL_SIDE_FRACTION``, ``LOCAL_MIRROR_FRACTION``) when their parents are one body or
+   a pair. A link whose only child is sided is sided too. Sided bodies hang off as *side
+   chains*; a branch lying wholly to one side with no partner (a third arm) is one too.
+2. **Head and spine**: among the ends of sagittal chains that do not stand on the ground
+   (and the root), the head is the one lying furthest forward and highest (2x + z relative
+   to the root, by the far end of its box: a scorpion's tail curls up over its back). Small
+   leaf bodies past it (a jaw, a tongue: under ``HEAD_TRIM_RATIO`` of the body before, with
+   nothing but trimmed bodies below them) are trimmed off; the lowest one hanging off the
+   head is its mouth. The head may be the root (a crab's carapace). The spine runs from the
+   head back to the farthest sagittal body that carries a leg or an arm (a quadruped's hips
+   when the file's root is its chest; spikes do not count), then on up to the file's root.
 3. **Sagittal branches** off the spine: one whose end lies behind where it leaves the
    spine and that has ``TAIL_MIN_BODIES`` or more bodies is a tail; one off the head is
-   the mouth (its first body; the rest are detail); any other is detail.
+   the mouth (its first body; the rest are detail), or a trunk (an arm) with
+   ``TRUNK_MIN_BODIES`` or more; any other is detail.
 4. **Side chains** (a sided child of a sagittal body and everything below it). The
    *main path* follows, at each body, the child whose subtree reaches furthest. A chain off
-   the head is an ear (or eye, if its name says so). A chain whose lowest box corner is
-   within ``GROUND_FRACTION`` x height of the ground is a **leg**: its foot is the first
-   body on the main path whose joint lies below ``FOOT_FRACTION`` x the chain's start
-   height (else the last body), later bodies are detail. Any other chain is an **arm**:
-   its grasper is the first body on the main path where it branches in two or more (a
-   hand with fingers), else its last body; later bodies and side branches are detail. A
-   free chain shorter than ``ARM_MIN_BODIES`` is a spike (by name) or detail.
+   the head reaching less than ``EAR_MAX_FRACTION`` x size is an ear (or eye, if its name
+   says so). A chain of two or more bodies whose lowest box corner is within
+   ``GROUND_FRACTION`` x height of the ground, and lies at most ``LEG_SPREAD_RATIO`` times
+   its drop away sideways (it comes down to the ground rather than lying along it), is a
+   **leg**: its foot is the first body on the main path whose joint lies below
+   ``FOOT_FRACTION`` x the chain's start height (else the last body), later bodies are
+   detail; a branch before the foot that reaches the ground too is another leg (a forked
+   leg). A chain rising ``NECK_RISE_FRACTION`` of its length to above the head's joint is a
+   neck carrying a **head** (where it branches, else its end); a sagittal head that carries
+   such necks is the shoulders they share, not a head. Any other chain is an **arm**: its
+   grasper is the first body on the main path where it branches in two or more (a hand
+   with fingers), else its last body; later bodies and side branches are detail. A chain
+   ending in a body named as an eye or an ear is a stalk. A free chain shorter than
+   ``ARM_MIN_BODIES`` is a spike (by name) or detail.
 5. **Names as a hint**: a name the table maps to ``wing`` turns an arm into a wing (no
    grasper); ``eye``/``ear``/``mouth``/``tail`` names add that capability to a body off
    the spine. Names are matched as in the BVH importer, also with leading ``Xx_`` tokens
    (``CC_Base_``, ``b_``) and a trailing ``_NN`` index removed.
 
-If the head would have no mouth of its own, the head stands in for it (as for BVH).
+A head with no mouth of its own stands in for it (as for BVH).
 ``mode="names"`` uses the name table alone (``engine.io.bvh_creature.joint_caps``' rules).
 Every body gets a one-line reason (``menagerie creatures explain``).
 """
@@ -60,6 +73,22 @@ MIRROR_FRACTION = 0.06
 HEAD_TRIM_RATIO = 0.3
 #: A sagittal branch going backward needs this many bodies to be a tail.
 TAIL_MIN_BODIES = 2
+#: A small body is off the plane when |y| exceeds this fraction of its bone (its distance
+#: from its parent's joint) and it pairs with a mirror partner ...
+LOCAL_SIDE_FRACTION = 0.15
+#: ... found within this fraction of its bone of its reflection.
+LOCAL_MIRROR_FRACTION = 0.3
+#: A leg comes down to the ground: its lowest point lies at most this many times its drop
+#: (from where it leaves the body) away sideways. Tentacles lying out flat are arms.
+LEG_SPREAD_RATIO = 4.0
+#: A side chain rising this much of its length above where it leaves the spine, and ending
+#: above the sagittal head's joint, carries a head on a neck (a two-headed creature).
+NECK_RISE_FRACTION = 0.5
+#: A sagittal branch off the head with this many bodies is a trunk (an arm), not a jaw.
+TRUNK_MIN_BODIES = 3
+#: A side chain off the head reaching less than this fraction of the size is an ear or an
+#: eye (a longer one is a limb: a crab's claws and legs hang off its carapace, the head).
+EAR_MAX_FRACTION = 0.2
 
 
 def _box_corners(centre, rot, half):
@@ -120,6 +149,23 @@ def _tree_path(parent, a, b):
     return up_a[:up_a.index(lca) + 1] + up_b[::-1]
 
 
+def _ancestors(parent, j):
+    """The bodies above ``j``, nearest first."""
+    out = []
+    j = parent[j]
+    while j >= 0:
+        out.append(int(j))
+        j = parent[j]
+    return out
+
+
+def _chain_start(parent, j, is_spine):
+    """The first body of the side chain holding ``j`` (the child of a spine body)."""
+    while parent[j] >= 0 and not is_spine[parent[j]]:
+        j = parent[j]
+    return int(j)
+
+
 def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode="shape", tip=None):
     """Capabilities (list per body) and a reason per body. Arrays in Menagerie axes, the
     creature grounded; ``parent`` parents-first with the root at 0; ``tip`` (n, 3) the end
@@ -171,6 +217,21 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         d[(dy * dy[j] >= 0) | (np.abs(dy) <= 0.5 * side_tol)] = np.inf  # a partner lies on the other side
         k = int(np.argmin(d))
         sided[j] = bool(d[k] <= mirror_tol and (off[j] or off[k]))
+    # Small paired bodies close to the plane (the eyes on a head, a spider's chelicerae) are
+    # off it by less than the creature-wide tolerance: they are sided when they pair across
+    # the plane at the scale of their own bone, and their parents are one body or a pair.
+    bone = np.linalg.norm(mid - joint_pos[np.maximum(parent, 0)], axis=1)
+    for j in range(1, n):
+        if sided[j] or abs(dy[j]) <= LOCAL_SIDE_FRACTION * bone[j]:
+            continue
+        d = np.linalg.norm(mid - refl[j], axis=1)
+        d[j] = np.inf
+        d[dy * dy[j] >= 0] = np.inf
+        k = int(np.argmin(d))
+        pj, pk = parent[j], parent[k]
+        same_parent = pj == pk or (pj > 0 and pk > 0 and sided[pj] and sided[pk])
+        if d[k] <= LOCAL_MIRROR_FRACTION * max(bone[j], 1e-9) and same_parent:
+            sided[j] = sided[k] = True
     # A link on the plane whose only child is sided belongs to that side chain (CMU's
     # LHipJoint: a zero-offset joint from the hips to the thigh).
     for j in range(n - 1, 0, -1):
@@ -186,9 +247,13 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
 
     def score(j):
         p = tip[j] if j != 0 else joint_pos[j]
-        return (p[0] - root[0]) + (p[2] - root[2])
+        return 2.0 * (p[0] - root[0]) + (p[2] - root[2])
 
-    head_end = max(ends, key=score)
+    # Forward counts twice: a scorpion's tail curls up over its back, its head is in front.
+    # The root itself is a candidate (score 0) for when every sagittal end lies behind it.
+    # A sagittal end on the ground is a foot (a tripod's front leg) unless every end is.
+    raised = [j for j in ends if corners[j][:, 2].min() - corners[..., 2].min() > GROUND_FRACTION * height]
+    head_end = max((raised or ends) + ([0] if 0 not in ends else []), key=score)
     path = []
     j = head_end
     while j >= 0:
@@ -206,13 +271,55 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         if vol[path[i + 1:]].sum() < HEAD_TRIM_RATIO * vol[path[i]] * len(path[i + 1:]):
             trimmed += path[i + 1:][::-1]
             path = path[:i + 1]
-    while len(path) > 2 and vol[path[-1]] < HEAD_TRIM_RATIO * vol[path[-2]]:
+    # A small end body is trimmed only when nothing but trimmed bodies hangs off it: a head
+    # carries its eyes, ears or jaw, a jaw carries nothing (or a trimmed tongue). The head may
+    # then be the file's root (a crab's carapace with its mouth in front).
+    while (len(path) >= 2 and all(c in trimmed for c in children[path[-1]])
+           and vol[path[-1]] < HEAD_TRIM_RATIO * vol[path[-2]]):
         trimmed.append(path.pop())
     head = path[-1]
     # The spine runs from the head to the farthest body that carries a side chain (the hips
     # of a quadruped whose file root is its chest), then on up a serial chain to the root.
-    below_head = set(_subtree(children, head)) | set(trimmed)
-    attach = [j for j in range(n) if sag[j] and j not in below_head and any(not sag[c] for c in children[j])]
+    reach = np.zeros(n)  # furthest tip distance below each body, from its joint
+    for k in range(n - 1, -1, -1):
+        reach[k] = max([float(np.linalg.norm(tip[k] - joint_pos[k]))]
+                       + [reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k])) for c in children[k]])
+
+    def main_path(j):
+        out = [j]
+        while children[out[-1]]:
+            k = out[-1]
+            out.append(max(children[k],
+                           key=lambda c: reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k]))))
+        return out
+
+    ground_h = GROUND_FRACTION * height
+
+    def lowest_of(c):
+        return float(corners[_subtree(children, c)][..., 2].min()) - ground
+
+    def is_leg(c):
+        """A side chain reaching the ground that hangs down to it rather than lying along it
+        (an octopus's arms spread out over the ground; legs come down to it)."""
+        bodies = _subtree(children, c)
+        low = lowest_of(c)
+        if low > ground_h or len(main_path(c)) < 2:  # a fin or a spike lying low is no leg
+            return False
+        flat = corners[bodies].reshape(-1, 3)
+        foot = flat[int(np.argmin(flat[:, 2]))]
+        drop = joint_pos[c, 2] - foot[2]
+        spread = float(np.hypot(*(foot[:2] - joint_pos[c, :2])))
+        return drop > 0 and spread <= LEG_SPREAD_RATIO * drop
+
+    def limb_like(c):
+        """A side chain that is a leg or an arm, not a spike or a fin stub."""
+        return is_leg(c) or len(main_path(c)) >= ARM_MIN_BODIES
+
+    # When the head is the file's root (a crab's carapace), the bodies below it are the
+    # rest of the creature, not parts of the head.
+    below_head = (set(_subtree(children, head)) if head != 0 else {head}) | set(trimmed)
+    attach = [j for j in range(n) if sag[j] and j not in below_head
+              and any(not sag[c] and limb_like(c) for c in children[j])]
     if attach:
         far = max(attach, key=lambda a: (len(_tree_path(parent, head, a)), -a))
         path = _tree_path(parent, far, head)
@@ -231,6 +338,16 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
     for j in trimmed:
         caps[j] = ["detail"]
         reasons[j] = f"detail: a small body past the head {names[head]}"
+    # The trimmed body hanging lowest off the head is its jaw (or beak, or mouth), unless a
+    # name says which one is.
+    off_head = [j for j in trimmed if parent[j] == head]
+    mouths: set[int] = set()  # heads that have a mouth of their own
+    if off_head:
+        by_name = [j for j in off_head if "mouth" in (named[j] or [])]
+        jaw = by_name[0] if by_name else min(off_head, key=lambda j: tip[j][2])
+        caps[jaw] = ["mouth"]
+        reasons[jaw] = f"mouth: the small body hanging lowest off the head {names[head]}"
+        mouths.add(head)
 
     def subtree(j):
         out, stack = [], [j]
@@ -240,27 +357,55 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             stack.extend(children[k])
         return sorted(out)
 
-    reach = np.zeros(n)  # furthest tip distance below each body, from its joint
-    for k in range(n - 1, -1, -1):
-        reach[k] = max([float(np.linalg.norm(tip[k] - joint_pos[k]))]
-                       + [reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k])) for c in children[k]])
-
-    def main_path(j):
-        out = [j]
-        while children[out[-1]]:
-            k = out[-1]
-            out.append(max(children[k],
-                           key=lambda c: reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k]))))
-        return out
-
     def mark(bodies, cap, why):
         for b in bodies:
             if caps[b] is None:
                 caps[b] = list(cap)
                 reasons[b] = why
 
+    def mark_leg(c, s):
+        """A leg from ``c``: limb bodies down to its foot; a branch before the foot that
+        reaches the ground too is another leg sharing the bodies above it (a forked leg)."""
+        mp = main_path(c)
+        start_z = joint_pos[c, 2] - ground
+        foot = next((b for b in mp if joint_pos[b, 2] - ground < FOOT_FRACTION * start_z), mp[-1])
+        k = mp.index(foot)
+        mark(mp[:k], ["limb"], f"leg: a side chain off {names[s]} reaching the ground")
+        mark([foot], ["limb", "foot"], f"foot: the leg's first body near the ground (chain from {names[c]})")
+        for b in mp[:k]:
+            for d in children[b]:
+                if d not in mp and caps[d] is None and lowest_of(d) <= ground_h and len(main_path(d)) >= 2:
+                    mark_leg(d, s)
+        mark(_subtree(children, c), ["detail"], f"detail: past the foot or off the leg's main path ({names[c]})")
+
+    def neck_head(c):
+        """The head at the end of a rising side chain (a neck), or None."""
+        mp = main_path(c)
+        if len(mp) < 2:
+            return None
+        length = sum(float(np.linalg.norm(joint_pos[mp[i + 1]] - joint_pos[mp[i]])) for i in range(len(mp) - 1))
+        length += float(np.linalg.norm(tip[mp[-1]] - joint_pos[mp[-1]]))
+        rise = tip[mp[-1], 2] - joint_pos[c, 2]
+        if rise < NECK_RISE_FRACTION * length or tip[mp[-1], 2] <= joint_pos[head, 2]:
+            return None
+        h = next((b for b in mp[1:] if len(children[b]) >= 2), mp[-1])
+        if {"eye", "ear"} & set(named[h] or []):  # an eye on a stalk is not a head
+            return None
+        return h
+
+    def mark_head_parts(h, why):
+        """Caps of a head's children: its jaw (named, else the lowest), eyes and ears by name."""
+        kids = [d for d in children[h] if caps[d] is None]
+        if kids:
+            by_name = [d for d in kids if "mouth" in (named[d] or [])]
+            jaw = by_name[0] if by_name else min(kids, key=lambda d: tip[d][2])
+            mark([jaw], ["mouth"], f"mouth: the body hanging lowest off the head {names[h]}")
+            mouths.add(h)
+        mark(_subtree(children, h), ["detail"], why)
+
     # 3. Sagittal branches off the spine; 4. side chains.
-    mouth_found = False
+    ear_reach = EAR_MAX_FRACTION * size
+    side_heads = []
     for s in path:
         for c in children[s]:
             if is_spine[c]:
@@ -268,36 +413,47 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             bodies = subtree(c)
             mp = main_path(c)
             nm = names[c]
-            lowest = float(corners[bodies][..., 2].min()) - ground
+            leg = is_leg(c)
             drop = joint_pos[c] - tip[mp[-1]]
             downward = drop[2] > abs(drop[0])
             back = tip[mp[-1], 0] < joint_pos[s, 0] - 0.02 * size
-            if sag[c] and not (s != head and lowest <= GROUND_FRACTION * height and downward
-                               and not (back and len(mp) >= TAIL_MIN_BODIES)):
-                if s == head:
+            # A branch lying wholly to one side with no mirror partner (a third arm) is a side
+            # chain all the same; a coiled snake has no such branch, its body is the spine.
+            lone = sag[c] and len(mp) >= ARM_MIN_BODIES and (np.all(dy[bodies] > side_tol)
+                                                           or np.all(dy[bodies] < -side_tol))
+            if sag[c] and not lone and not (s != head and leg and downward
+                                            and not (back and len(mp) >= TAIL_MIN_BODIES)):
+                if s == head and len(mp) >= TRUNK_MIN_BODIES and reach[c] >= ear_reach:
+                    mark(mp[:-1], ["limb"], f"trunk: a sagittal chain of {len(mp)} bodies off the head {names[head]}")
+                    mark([mp[-1]], ["limb", "grasper"], "grasper: the trunk's last body")
+                    mark(bodies, ["detail"], f"detail: off the trunk's main path ({nm})")
+                elif s == head:
                     mark([c], ["mouth"], f"mouth: a sagittal branch off the head {names[head]}")
                     mark(bodies, ["detail"], f"detail: below the mouth {nm}")
-                    mouth_found = True
+                    mouths.add(head)
                 elif back and len(mp) >= TAIL_MIN_BODIES:
                     mark(bodies, ["tail"], f"tail: a sagittal chain of {len(mp)} bodies going backward off "
                                            f"{names[s]}")
                 else:
                     mark(bodies, ["detail"], f"detail: a short sagittal branch off {names[s]}")
                 continue
-            if s == head and not sag[c]:
+            h = None if leg else neck_head(c)
+            if s == head and (reach[c] < ear_reach or not leg and h is None and len(mp) < ARM_MIN_BODIES):
                 hint = named[c] or []
                 cap = "eye" if "eye" in hint else "ear"
-                mark([c], [cap], f"{cap}: a side chain off the head")
+                mark([c], [cap], f"{cap}: a short side chain off the head")
                 mark(bodies, ["detail"], f"detail: below {nm}")
                 continue
+            if h is not None and reach[c] >= ear_reach:
+                k = mp.index(h)
+                mark(mp[:k], ["limb"], f"neck: a side chain rising off {names[s]} to a head")
+                mark([h], ["head"], f"head: at the top of the neck from {names[s]}")
+                mark_head_parts(h, f"detail: part of the head {names[h]}")
+                side_heads.append(h)
+                continue
             wing = any("wing" in (named[b] or []) for b in mp)
-            if lowest <= GROUND_FRACTION * height and not wing:
-                start_z = joint_pos[c, 2] - ground
-                foot = next((b for b in mp if joint_pos[b, 2] - ground < FOOT_FRACTION * start_z), mp[-1])
-                k = mp.index(foot)
-                mark(mp[:k], ["limb"], f"leg: a side chain off {names[s]} reaching the ground")
-                mark([foot], ["limb", "foot"], f"foot: the leg's first body near the ground (chain from {nm})")
-                mark(bodies, ["detail"], f"detail: past the foot or off the leg's main path ({nm})")
+            if leg and not wing:
+                mark_leg(c, s)
             elif wing:
                 mark(mp, ["limb", "wing"], f"wing: a free side chain off {names[s]} named as a wing")
                 mark(bodies, ["detail"], "detail: off the wing's main path")
@@ -306,6 +462,11 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 cap = "spike" if "spike" in hint else "detail"
                 mark(bodies, [cap], f"{cap}: a short free side chain off {names[s]} (an arm has "
                                     f"{ARM_MIN_BODIES} or more bodies)")
+            elif {"eye", "ear"} & set(named[mp[-1]] or []):
+                hint = named[mp[-1]]
+                cap = "eye" if "eye" in hint else "ear"
+                mark([mp[-1]], [cap], f"{cap}: on a stalk off {names[s]} (by its name)")
+                mark(bodies, ["detail"], f"detail: the stalk of {names[mp[-1]]}")
             else:
                 grasp = next((b for b in mp if len(children[b]) >= 2), mp[-1])
                 k = mp.index(grasp)
@@ -313,6 +474,17 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 mark([grasp], ["limb", "grasper"], "grasper: where the arm branches into fingers"
                      if len(children[grasp]) >= 2 else "grasper: the arm's last body")
                 mark(bodies, ["detail"], f"detail: past the grasper or off the arm's main path ({nm})")
+    # Heads on necks that hang off the sagittal head: that body is the shoulders they share
+    # (a two-headed creature's chest), not a head itself.
+    if any(parent[_chain_start(parent, h, is_spine)] == head for h in side_heads):
+        caps[head] = ["spine"]
+        reasons[head] = "spine: carries the necks of the heads " + ", ".join(names[h] for h in side_heads)
+        for d in children[head]:
+            if caps[d] == ["mouth"]:
+                caps[d] = ["detail"]
+                reasons[d] += "; not a mouth: its body carries heads"
+        mouths.discard(head)
+    heads = [j for j in range(n) if "head" in caps[j]]
     for j in range(n):  # anything still unmarked hangs below detail bodies handled above
         if caps[j] is None:
             caps[j] = ["detail"]
@@ -332,8 +504,12 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             if cap in named[j] and cap not in caps[j]:
                 caps[j] = [c for c in caps[j] if c != "detail"] + [cap]
                 reasons[j] += f"; '{cap}' from its name"
-                mouth_found |= cap == "mouth"
-    if not mouth_found:
-        caps[head].append("mouth")
-        reasons[head] += "; stands in for a mouth (none of its own)"
+                if cap == "mouth":
+                    h = next((a for a in _ancestors(parent, j) if "head" in caps[a]), None)
+                    if h is not None:
+                        mouths.add(h)
+    for h in heads:
+        if h not in mouths:
+            caps[h].append("mouth")
+            reasons[h] += "; stands in for a mouth (none of its own)"
     return [list(c) for c in caps], reasons
