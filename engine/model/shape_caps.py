@@ -342,12 +342,22 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
     # name says which one is.
     off_head = [j for j in trimmed if parent[j] == head]
     mouths: set[int] = set()  # heads that have a mouth of their own
+    guessed_jaw = None  # a jaw found by shape alone gives way to a mouth branch or a name
+
+    def unguess(why):
+        nonlocal guessed_jaw
+        if guessed_jaw is not None and caps[guessed_jaw] == ["mouth"]:
+            caps[guessed_jaw] = ["detail"]
+            reasons[guessed_jaw] = f"detail: a small body past the head {names[head]} ({why})"
+        guessed_jaw = None
+
     if off_head:
         by_name = [j for j in off_head if "mouth" in (named[j] or [])]
         jaw = by_name[0] if by_name else min(off_head, key=lambda j: tip[j][2])
         caps[jaw] = ["mouth"]
         reasons[jaw] = f"mouth: the small body hanging lowest off the head {names[head]}"
         mouths.add(head)
+        guessed_jaw = None if by_name else jaw
 
     def subtree(j):
         out, stack = [], [j]
@@ -428,6 +438,7 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                     mark([mp[-1]], ["limb", "grasper"], "grasper: the trunk's last body")
                     mark(bodies, ["detail"], f"detail: off the trunk's main path ({nm})")
                 elif s == head:
+                    unguess(f"the mouth is the branch {nm}")
                     mark([c], ["mouth"], f"mouth: a sagittal branch off the head {names[head]}")
                     mark(bodies, ["detail"], f"detail: below the mouth {nm}")
                     mouths.add(head)
@@ -505,6 +516,7 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 caps[j] = [c for c in caps[j] if c != "detail"] + [cap]
                 reasons[j] += f"; '{cap}' from its name"
                 if cap == "mouth":
+                    unguess(f"{names[j]} is the mouth by its name")
                     h = next((a for a in _ancestors(parent, j) if "head" in caps[a]), None)
                     if h is not None:
                         mouths.add(h)
