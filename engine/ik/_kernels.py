@@ -1002,7 +1002,7 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
     if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
         _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
-    _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -1141,10 +1141,11 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+def _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """Limb reconstruction (4.3.3): positions by outward projection to the allowed
     stretch, orientations by minimal twist from the rest pose, or from two constraint
-    axes where cross-constraints fix the frame; rotation goals blended in."""
+    axes where cross-constraints fix the frame; rotation goals blended in, keeping every
+    child's joint on its parent."""
     nlp = P.lp_body.shape[0]
     # Positions: outward projection to the allowed stretch (particles are parents first).
     for i in range(nlp):
@@ -1199,10 +1200,47 @@ def _limb_rebuild(P, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
         if gi >= 0:
             wr = min(max(goal_rot_w[b], 0.0), 1.0)
             if wr > 0.0:
-                rot = qslerp(rot, q4(goal_rot, b), wr)
+                c1 = P.lp_c1[i]
+                if mode <= 1 and c1 >= 0 and P.lp_parent[c1] == i and P.lp_mode[c1] != 3:
+                    # A body with a limb joint below it (a tail segment, a forearm): its
+                    # child's joint stays on it. The chord to that joint turns with the
+                    # rotation goal where nothing below is pinned by a position goal (the
+                    # particles below turn with it), else the body keeps the chord the
+                    # constraints gave and the goal sets only its twist about it.
+                    local = qrot(qconj(rot), vsub(v3(lp_pos, c1), v3(lp_pos, i)))
+                    rot = qnormalize(qslerp(rot, q4(goal_rot, b), wr))
+                    want = qrot(rot, local)
+                    piv = v3(lp_pos, i)
+                    e1p = vsub(v3(lp_pos, c1), piv)
+                    if not _pinned_below(P, c1, goal_pos_w):
+                        d = qbetween(e1p, want)
+                        for k in range(c1, nlp):
+                            if _particle_below(P.lp_parent, k, c1):
+                                set3(lp_pos, k, vadd(piv, qrot(d, vsub(v3(lp_pos, k), piv))))
+                        e1p = vsub(v3(lp_pos, c1), piv)
+                    rot = qmul(qbetween(qrot(rot, local), e1p), rot)
+                else:
+                    rot = qslerp(rot, q4(goal_rot, b), wr)
         rot = qnormalize(rot)
         set4(out_rot, b, rot)
         set3(out_pos, b, vadd(v3(lp_pos, i), qrot(rot, v3(P.b_joint_offset, b))))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _particle_below(lp_parent, k, c):
+    """Whether limb particle ``k`` is ``c`` or hangs below it (particles are parents first)."""
+    while k > c:
+        k = lp_parent[k]
+    return k == c
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _pinned_below(P, c, goal_pos_w):
+    """Whether a position goal pins particle ``c`` or one below it."""
+    for k in range(c, P.lp_body.shape[0]):
+        if P.lp_goal[k] >= 0 and goal_pos_w[P.lp_body[k]] > 0.0 and _particle_below(P.lp_parent, k, c):
+            return True
+    return False
 
 
 @njit(cache=True, _nrt=False, inline="always")
