@@ -894,6 +894,34 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             joint = vadd(v3(out_pos, body), qrot(fr, v3(P.segbody_off, j)))
             set4(out_rot, body, rot)
             set3(out_pos, body, vadd(joint, qrot(rot, v3(P.b_joint_offset, body))))
+    # The spline places every spine joint; the transported frames point each body along
+    # the spline's tangent at its own joint, which on a tightly bent spine (a capture's
+    # short lower back folding forward) misses the next joint by up to half a bone. Swing
+    # each spine body (not the root, whose frame is given) about its joint so it points at
+    # its outward neighbour's joint: the spine stays in one piece and keeps its twist.
+    for g in range(P.seg_a.shape[0]):
+        adr = P.seg_body_adr[g]
+        num = P.seg_body_num[g]
+        prev = P.sp_body[P.seg_a[g]]
+        for j in range(adr, adr + num + 1):
+            nxt = P.segbody_body[j] if j < adr + num else P.sp_body[P.seg_b[g]]
+            if prev != 0 and P.b_parent[nxt] == prev:
+                _aim_at_child(P, prev, nxt, out_pos, out_rot)
+            prev = nxt
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _aim_at_child(P, x, y, out_pos, out_rot):
+    """Swing body ``x`` about its joint so that its child ``y``'s joint lies on its bone."""
+    rx = q4(out_rot, x)
+    jx = vsub(v3(out_pos, x), qrot(rx, v3(P.b_joint_offset, x)))
+    jy = vsub(v3(out_pos, y), qrot(q4(out_rot, y), v3(P.b_joint_offset, y)))
+    cur = qrot(rx, vadd(v3(P.b_joint_offset, x), v3(P.b_local_joint, y)))
+    want = vsub(jy, jx)
+    if vnorm(cur) > EPS and vnorm(want) > EPS:
+        rx = qnormalize(qmul(qbetween(cur, want), rx))
+        set4(out_rot, x, rx)
+        set3(out_pos, x, vadd(jx, qrot(rx, v3(P.b_joint_offset, x))))
 
 
 @njit(cache=True, _nrt=False, inline="always")
