@@ -123,12 +123,6 @@ NSCRATCH = 12
 
 EPS = 1e-12
 
-# The limb aim turns a chain fully toward a goal at least this far from its pivot (as a
-# fraction of the chain's current pivot-to-goal-particle distance), not at all at
-# AIM_NEAR_NONE (see ``_limb_phase``).
-AIM_NEAR_NONE = 0.0
-AIM_NEAR_FULL = 0.5
-
 
 # -- small vector and quaternion algebra on tuples -------------------------------------
 # These helpers are ordinary calls for numba and are inlined by LLVM, which inlines
@@ -659,26 +653,6 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
     goals, spine constraints between branch points) leaves inward, 5 outer iterations,
     watching for buckling and blending toward the rest pose when it happens."""
-    # Anti-buckling blends toward the rest pose by how far the spine folds; measured
-    # inside the same iterations, the blend would feed back on its own measure and engage
-    # in steps as a goal moves (a serial leg's goal swept past full reach turned a spine
-    # body 0.9 rad in one step). So the fold is measured by a pass without the blend, and
-    # only if it folds too far is the phase run again with the blend held at that level
-    # from the start: the pose is then continuous in the goals.
-    buckle = _spine_pass(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
-                         sp_acc, 0.0)
-    if buckle > 0.0:
-        _spine_pass(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv, sp_acc,
-                    buckle)
-    state[0] = buckle
-
-
-@njit(cache=True, _nrt=False, inline="always")
-def _spine_pass(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv, sp_acc,
-                buckle):
-    """One run of the spine-phase iterations from the rest pose with the anti-buckling
-    blend held at ``buckle`` (0: off); returns the fold measured (0 when anti-buckling is
-    off or ``buckle`` > 0: only the unblended pass measures)."""
     prm = P.params
     slope, band, width = prm[P_SOFT_SLOPE], prm[P_SOFT_BAND], prm[P_SOFT_WIDTH]
     nsp = P.sp_kind.shape[0]
@@ -704,9 +678,9 @@ def _spine_pass(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_ta
     n_inner = int(prm[P_SPINE_INNER])
     inv_n = 1.0 / (1 + n_outer * n_inner)        # pins per solve: the start and every sweep
     _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True, inv_n)
+    buckle = 0.0
     nsc = P.sc_a.shape[0]
-    measure = prm[P_ANTI_BUCKLING] > 0.0 and buckle <= 0.0
-    fold = 0.0
+    anti = prm[P_ANTI_BUCKLING] > 0.0
     for _outer in range(n_outer):
         for _inner in range(n_inner):
             for c in range(nsc):
@@ -745,12 +719,12 @@ def _spine_pass(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_ta
                         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, inv_n)))
             _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False,
                            inv_n)
-        if measure:
+        if anti:
             b = smoothstep((_buckle_metric(P.bp_c1, P.bp_c2, P.bp_sign1, P.bp_rest_angle, P.sc_a, P.sc_b, P.sp_rest,
                                            root_rot, sp_pos) - prm[P_BUCKLE_ON])
                            / (prm[P_BUCKLE_FULL] - prm[P_BUCKLE_ON]))
-            fold = max(fold, b)
-    return fold
+            buckle = max(buckle, b)
+    state[0] = buckle
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -1000,17 +974,6 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
         rot = qbetween(vr, vg)
         scale = ng / nr
         ghat = vscale(vg, 1.0 / ng)
-        # A goal close to the pivot (the limb must fold onto its root: a hand at the mouth
-        # with the arm pivoting at the sternum) has a direction that says little about how
-        # the limb should turn, and turning the whole chain to it moves the chain's start
-        # a long way for a small step of the goal: the iterations then fold it either
-        # way. Turn only part of the way there (none at the pivot, all of it from
-        # AIM_NEAR_FULL), squash along the turned rest direction, and let the iterations
-        # carry the tip the short rest of the way: the start is then continuous in the goal.
-        k = smoothstep((scale - AIM_NEAR_NONE) / (AIM_NEAR_FULL - AIM_NEAR_NONE))
-        if k < 1.0:
-            rot = qslerp((1.0, 0.0, 0.0, 0.0), rot, k)
-            ghat = vscale(qrot(rot, vr), 1.0 / nr)
         # Squashing along v_g (goal closer than at rest) would flatten the chain onto the
         # line, where the constraint iterations may fold it either way. Unlike the paper
         # we also widen the chain across v_g so its segments keep their length on
@@ -1051,9 +1014,10 @@ def _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest):
     on where they started, so a small step of the goal can swing the body half a turn
     (a hand or a toe spinning about its wrist or ankle). Seat the joint where the parent
     bone and the goal body, taken as one rigid piece in their rest shape, put it when
-    that piece is turned (shortest arc from its rest pose) onto the parent-joint-to-tip
-    line; the triangle's side lengths are kept. A straight rest shape says nothing about
-    the side: there the iterations keep deciding."""
+    that piece is turned (shortest arc from where the bone above carries it) onto the
+    parent-joint-to-tip line: the joint is only turned about that line, so its distances
+    to both ends stay what the iterations made them. Only braced tips (bent at rest): a
+    straight rest shape says nothing about the side, and there the iterations decide."""
     for gi in range(P.goal_body.shape[0]):
         j = P.goal_lpj[gi]
         if j < 0:
@@ -1100,9 +1064,9 @@ def _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest):
         ns = vnorm(side)
         if ns < EPS:
             continue
-        along = (a * a - bl * bl + d * d) / (2.0 * d)
-        h = math.sqrt(max(a * a - along * along, 0.0))
-        set3(lp_pos, j, vadd(pe, vadd(vscale(u, along), vscale(side, h / ns))))
+        # Only turn the joint about the line (its distances to both ends, which the
+        # iterations and the soft reach set, stay as they are).
+        set3(lp_pos, j, vadd(pe, vadd(vscale(u, vdot(ij, u)), vscale(side, nip / ns))))
 
 
 @njit(cache=True, _nrt=False, inline="always")
