@@ -1028,9 +1028,73 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
                   int(prm[P_LIMB_INNER]))
     _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
+    _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest)
     if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
         _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest):
+    """A goal body with a position goal and no rotation goal has its tip pinned and its
+    joint free: the joint may sit anywhere on the circle about the line from its
+    parent's joint to the tip, and where the iterations leave it on that circle depends
+    on where they started, so a small step of the goal can swing the body half a turn
+    (a hand or a toe spinning about its wrist or ankle). Seat the joint where the parent
+    bone and the goal body, taken as one rigid piece in their rest shape, put it when
+    that piece is turned (shortest arc from where the bone above carries it) onto the
+    parent-joint-to-tip line: the joint is only turned about that line, so its distances
+    to both ends stay what the iterations made them. Only braced tips (bent at rest): a
+    straight rest shape says nothing about the side, and there the iterations decide."""
+    for gi in range(P.goal_body.shape[0]):
+        j = P.goal_lpj[gi]
+        if j < 0:
+            continue
+        e = P.lp_parent[j]
+        if e < 0 or P.lp_mode[j] != 4:
+            continue
+        b = P.goal_body[gi]
+        if min(max(goal_pos_w[b], 0.0), 1.0) <= 0.0 or min(max(goal_rot_w[b], 0.0), 1.0) > 0.0:
+            continue
+        i = P.goal_lp[gi]
+        pe = v3(lp_pos, e)
+        pj = v3(lp_pos, j)
+        pt = v3(lp_pos, i)
+        re = v3(lp_rest, e)
+        ej_r = vsub(v3(lp_rest, j), re)
+        et_r = vsub(v3(lp_rest, i), re)
+        et = vsub(pt, pe)
+        d = vnorm(et)
+        a = vnorm(ej_r)
+        bl = vnorm(vsub(v3(lp_rest, i), v3(lp_rest, j)))
+        if d < EPS or a < EPS or bl < EPS:
+            continue
+        u = vscale(et, 1.0 / d)
+        g = P.lp_parent[e]
+        if g >= 0:
+            # The rest shape as the bone above carries it (turned the way the rebuild
+            # turns that bone), so the piece turns from nearby, not from the rest pose.
+            rg = qbetween(vsub(re, v3(lp_rest, g)), vsub(pe, v3(lp_pos, g)))
+            et_r = qrot(rg, et_r)
+            ej_r = qrot(rg, ej_r)
+        rigid = qrot(qbetween(et_r, et), ej_r)
+        rp = vsub(rigid, vscale(u, vdot(rigid, u)))
+        ij = vsub(pj, pe)
+        ip = vsub(ij, vscale(u, vdot(ij, u)))
+        nrp = vnorm(rp)
+        nip = vnorm(ip)
+        side = vscale(ip, 1.0 / max(nip, EPS))
+        # Trust the rest shape's side where it is clearly bent (the joint more than 0.3
+        # of the body's length off the line), the fallback where it is nearly straight
+        # (below 0.1), and blend in between.
+        f = smoothstep((nrp / bl - 0.1) / 0.2)
+        side = vadd(vscale(rp, f / max(nrp, EPS)), vscale(side, 1.0 - f))
+        ns = vnorm(side)
+        if ns < EPS:
+            continue
+        # Only turn the joint about the line (its distances to both ends, which the
+        # iterations and the soft reach set, stay as they are).
+        set3(lp_pos, j, vadd(pe, vadd(vscale(u, vdot(ij, u)), vscale(side, nip / ns))))
 
 
 @njit(cache=True, _nrt=False, inline="always")
