@@ -57,10 +57,10 @@ def rest_root(c):
 
 def colliding_limbs(c, plan, pos, rot):
     """Limbs with a body inside another body of the creature (deeper than at rest) in the
-    pose: self-collision (on by default, issue 16) stops their goals at the surface, so
-    the accuracy and reach objectives do not apply to them (tests/test_ik_selfcollision.py
-    tests what happens there)."""
-    excess = selfcollision.pose_excess(plan, pos, rot)
+    pose, or within half a radius of it: self-collision (on by default, issue 16) stops
+    their goals at the surface, so the accuracy and reach objectives do not apply to them
+    (tests/test_ik_selfcollision.py tests what happens there)."""
+    excess = selfcollision.pose_excess(plan, pos, rot, margin=0.5)
     bodies = plan.self_collision_pairs[excess > 0.0].reshape(-1)
     return {int(c.body_limb[b]) for b in bodies if not c.body_is_spine[b]}
 

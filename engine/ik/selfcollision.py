@@ -129,11 +129,13 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
     return cl_i, cl_f, C.W * len(order) + 2 * len(lp_body), np.array(pair_bodies, np.int64).reshape(-1, 2)
 
 
-def pose_excess(plan, pos, rot) -> np.ndarray:
+def pose_excess(plan, pos, rot, margin: float = 0.0) -> np.ndarray:
     """(npair,) how much deeper than at rest each of the plan's pairs' capsules overlap
     in a world pose ``pos`` (nbody, 3), ``rot`` (nbody, 4) (0 where they do not): the
     kernel's own measure, on a pose's bodies instead of its particles (tests pick goals
-    outside the body with it)."""
+    outside the body with it). ``margin`` (share of the thinner radius) counts pairs that
+    come that close as overlapping: the kernel poses a fork body's capsule by its first
+    branch alone, so its proxy can touch where the final pose's does not quite."""
     c = plan.creature
     pairs = plan.self_collision_pairs
     out = np.zeros(len(pairs))
@@ -154,5 +156,5 @@ def pose_excess(plan, pos, rot) -> np.ndarray:
             ra0, ra1, _ = _rest_segment(c, int(a))
             rb0, rb1, _ = _rest_segment(c, int(b))
             rest[int(a), int(b)] = max(0.0, ra + rb - closest_distance(ra0, ra1, rb0, rb1))
-        out[j] = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1) - rest[int(a), int(b)])
+        out[j] = max(0.0, ra + rb + margin * min(ra, rb) - closest_distance(a0, a1, b0, b1) - rest[int(a), int(b)])
     return out
