@@ -538,7 +538,10 @@ def test_branching_legs_meet_planted_toes_when_the_hips_crouch(splay):
             continue
         tested += 1
         feet = [int(f) for f in c.leg_foot]
-        plan = plan_for(c, feet, IKParams(fork_splay=splay))
+        # without self-collision: crouched hips bring a leg's first segment into the
+        # spine (random creature 19), which self-collision rightly stops short of its
+        # toe; this test is about the fork's geometry alone
+        plan = plan_for(c, feet, IKParams(fork_splay=splay, self_collision=False))
         scratch = plan.make_scratch()
         goals = IKGoals(c.nbody)
         out_p, out_r = np.zeros((c.nbody, 3)), np.zeros((c.nbody, 4))

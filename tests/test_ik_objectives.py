@@ -23,8 +23,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import engine
-from engine.ik import IKSolver
+from engine.ik import IKParams, IKSolver, selfcollision
 from engine.ik import _kernels as K
+from engine.ik.solver import pose_free_rigid
 from engine.ik.testing import arm_chain_creature, humanoid_creature, joint_world, random_reachable_pose
 from engine.model import build_creature
 from engine.model.caps import FOOT, GRASPER, HEAD, MOUTH
@@ -55,9 +56,22 @@ def rest_root(c):
     return c.body_rest_pos[0].copy(), c.body_rest_rot[0].copy()
 
 
+def colliding_limbs(c, plan, pos, rot):
+    """Limbs with a body inside another body of the creature (deeper than at rest) in the
+    pose, or within half a radius of it: self-collision (on by default, issue 16) stops
+    their goals at the surface, so the accuracy and reach objectives do not apply to them
+    (tests/test_ik_selfcollision.py tests what happens there)."""
+    pos, rot = pos.copy(), rot.copy()
+    pose_free_rigid(plan, pos, rot)    # as the solver sees the bodies it leaves to the caller
+    excess = selfcollision.pose_excess(plan, pos, rot, margin=0.5)
+    bodies = plan.self_collision_pairs[excess > 0.0].reshape(-1)
+    return {int(c.body_limb[b]) for b in bodies if not c.body_is_spine[b]}
+
+
 def accuracy_worst(c, rng, trials):
     """Worst error / limb length over goals within 95% of reach (goals read back from a
-    random forward-kinematic pose, so they are reachable together)."""
+    random forward-kinematic pose, so they are reachable together; limbs that pose puts
+    inside the body are left out)."""
     gb = goal_bodies(c)
     if not gb:
         return 0.0, 0
@@ -70,7 +84,10 @@ def accuracy_worst(c, rng, trials):
             s.goals.set(g, pos=pos[g], rot=rot[g], rot_weight=1.0 if t % 2 == 0 else 0.0)
         s.solve(*rest_root(c))
         assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies]))
+        inside = colliding_limbs(c, s.plan, pos, rot)
         for g in limb_goals(c, s):
+            if c.body_limb[g] in inside:
+                continue
             L = c.body_limb_length[g]
             lr = c.limb_root[c.body_limb[g]]
             if np.linalg.norm(joint_world(c, pos, rot, g) - joint_world(c, pos, rot, lr)) > 0.95 * L:
@@ -143,10 +160,19 @@ def test_out_of_reach_points_at_goal_within_stretch(seed, direction_seed):
     s.solve(rp, rr)
     assert np.all(np.isfinite(s.out_pos[s.plan.ik_bodies])) and np.all(np.isfinite(s.out_rot[s.plan.ik_bodies]))
     limb_lengths_ok(c, s)
+    # a limb pointing through the body (as it would without self-collision) is stopped
+    # at its surface instead: pointing is checked on the others
+    off = IKSolver(c, gb, IKParams(self_collision=False))
+    for g, goal in goals.items():
+        off.goals.set(g, pos=goal)
+    off.solve(rp, rr)
+    inside = colliding_limbs(c, s.plan, off.out_pos, off.out_rot)
     p = s.plan.params
     for g, goal in goals.items():
         if sum(1 for h in goals if c.body_limb[h] == c.body_limb[g]) > 1:
             continue  # a branching limb whose goals pull its branches apart: a conflict instead
+        if c.body_limb[g] in inside:
+            continue
         lr = c.limb_root[c.body_limb[g]]
         attach = joint_world(c, s.out_pos, s.out_rot, lr)
         # Pointing: the body's origin lies on the line to the goal (within 15 degrees, the
@@ -300,10 +326,14 @@ def assert_no_flip(normals, min_bend=0.05):
                 assert n0 @ n1 > 0.0, f"bend side flipped at step {k}"
 
 
+# Continuity with self-collision on as well as off: the hand's sweep starts inside the
+# torso, so with it on the hand slides along the torso's surface as contacts come and go
+# (each contact's push ramps in over a skin band, engine/ik/_collide.py).
+@pytest.mark.parametrize("self_collision", [False, True], ids=["plain", "self_collision"])
 @pytest.mark.parametrize("limb", ["hand_l", "foot_r"])
-def test_sweep_humanoid_limb_is_smooth(limb):
+def test_sweep_humanoid_limb_is_smooth(limb, self_collision):
     c = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
-    s = IKSolver(c, [limb])
+    s = IKSolver(c, [limb], IKParams(self_collision=self_collision))
     b = c.body(limb)
     lr = c.limb_root[c.body_limb[b]]
     attach = c.body_joint[lr]
@@ -335,10 +365,10 @@ def test_sweep_random_creature_is_smooth(seed, direction_seed):
     _assert_smooth_sweep(c, body, rng)
 
 
-def _assert_smooth_sweep(c, body, rng):
+def _assert_smooth_sweep(c, body, rng, params=None):
     """Sweep a lone goal on ``body`` from near its limb's attachment to past full reach,
     with a sideways drift drawn from ``rng``: no pose jump, no bend flip."""
-    s = IKSolver(c, [body])
+    s = IKSolver(c, [body], params or IKParams())
     if body in s.plan.delegated:
         return
     lr = c.limb_root[c.body_limb[body]]
@@ -367,6 +397,18 @@ def test_six_joint_chain_reaches_and_stays_smooth():
     max_step, normals = sweep(c, s, hand, start, end)
     assert max_step < 0.1
     assert_no_flip(normals)
+
+
+@pytest.mark.xfail(strict=True, reason="known (issue 16, self-collision off by default): with self-collision on, "
+                   "random creature 58's leg3_l_foot swept from near its hip past full reach turns a body 0.19 rad "
+                   "in one step (0.15 allowed; fine without it); the humanoid's sweeps above are smooth with it on")
+def test_sweep_random_creature_with_self_collision_known_jump():
+    c = random_creature(58)
+    gb = [g for g in goal_bodies(c) if c.body_limb_length[g] > 0]
+    rng = np.random.default_rng(70)
+    body = gb[int(rng.integers(len(gb)))]
+    assert not _on_fork(c, body)
+    _assert_smooth_sweep(c, body, rng, IKParams(self_collision=True))
 
 
 def _on_fork(c, body) -> bool:

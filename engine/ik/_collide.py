@@ -23,7 +23,8 @@ in the carrier's frame, radius, bound = half length + radius), then per pair the
 pose's own overlap (m), which is allowed, and the square of the distance between the
 two capsules' middles beyond which they cannot touch. Work rows in the scratch: ``W``
 per proxy (the world ends of its capsule, their middle, a mover's rest offsets), then
-one per limb particle (the pass's summed pushes, zero between passes).
+two per limb particle (the pass's summed pushes and their summed weights, zero between
+passes).
 
 Like ``engine.ik._kernels`` (whose stage calls this one, inlined), everything is compiled
 without reference counts and touches no heap; the small tuple algebra is repeated here
@@ -42,6 +43,7 @@ NI_PROX = 3      # ints per proxy
 NF_PROX = 8      # floats per proxy
 W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
 MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
+SKIN = 1.0       # depth (share of the thinner capsule's radius) over which a contact's push ramps in
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -152,13 +154,11 @@ def _closest_params(p1, q1, p2, q2):
         x = sin2 / 0.01
         k = x * x * (3.0 - 2.0 * x)
         s = s_mid + k * (s - s_mid)
-    t = (b * s + f) / e
-    if t < 0.0:
-        t = 0.0
-        s = _clamp01(-c / a) if sin2 >= 0.01 else s
-    elif t > 1.0:
-        t = 1.0
-        s = _clamp01((b - c) / a) if sin2 >= 0.01 else s
+    # t of the point of segment 2 closest to s, then s again from that t (always, not
+    # only where t was clamped as in the textbook: where s is exact this changes
+    # nothing, and it keeps s continuous as t reaches an end and as the fade turns off)
+    t = _clamp01((b * s + f) / e)
+    s = _clamp01((b * t - c) / a)
     return s, t
 
 
@@ -256,17 +256,30 @@ def _bone_weight(lp_pos, i, c, q):
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _nudge(delta, i, v):
-    delta[i, 0] += v[0]
-    delta[i, 1] += v[1]
-    delta[i, 2] += v[2]
+def _rigid_end(P, c):
+    """Whether direction particle c is the tip of a chain's end body (a hand, a foot, a
+    claw) whose pivot is not the limb's root: the push moves such a body whole, its tip
+    following its pivot, so contacts translate it and never turn it (nothing but the
+    push would turn it back, and a hand spun by every contact it slides along jerks)."""
+    return P.lp_mode[c] == 3 and P.lp_parent[P.lp_parent[c]] >= 0
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _nudge(delta, count, i, n, m):
+    """Add a push of length m along n to particle i, weighted by its length (see
+    ``_push_pairs``)."""
+    w = abs(m)
+    delta[i, 0] += w * m * n[0]
+    delta[i, 1] += w * m * n[1]
+    delta[i, 2] += w * m * n[2]
+    count[i, 0] += w
 
 
 @njit(cache=True, _nrt=False, inline="always")
 def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
-    particles apart along the contact normal. The pushes are summed and applied after the
-    pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
+    particles apart along the contact normal. The pushes are averaged per particle and
+    applied after the pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
     left and right stay mirror images. Returns how many pairs pushed."""
     nprox = cl_i[0]
     nmove = cl_i[1]
@@ -279,6 +292,7 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nlp = lp_pos.shape[0]
     delta = work[W * nprox:W * nprox + nlp]
+    count = work[W * nprox + nlp:W * nprox + 2 * nlp]
     pushed = 0
     for p in range(npair):
         ka = cl_i[pair0 + 2 * p]
@@ -304,6 +318,14 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         pen = cl_f[fa + 6] + cl_f[fb + 6] - dist - allowed
         if pen <= 0.0:
             continue
+        # skin band: the push ramps in over the first SKIN of the thinner radius (C1 in
+        # the depth, so a contact switching on does not turn a body abruptly), then
+        # takes all but half the band out
+        band = SKIN * min(cl_f[fa + 6], cl_f[fb + 6])
+        if pen < band:
+            pen = pen * pen / (2.0 * band)
+        else:
+            pen -= 0.5 * band
         if dist > 1e-9:
             n = _scale(d, 1.0 / dist)
         else:  # axes crossing: push across both
@@ -319,36 +341,56 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         ib, cb = cl_i[hb + 1], cl_i[hb + 2]
         denom = 0.0
         # weights of the pivot (1 - u) and direction (u) particles; a body held by a
-        # rotation goal is moved whole (both particles alike) as far as the goal holds it
+        # rotation goal is moved whole (both particles alike) as far as the goal holds it;
+        # a chain's end body is pushed at its pivot and its tip follows (``_rigid_end``)
         ua = 0.0
         ub = 0.0
         va = 0.0
         vb = 0.0
         if ia >= 0:
-            wr = min(max(goal_rot_w[lp_body[ia]], 0.0), 1.0)
-            u = _bone_weight(lp_pos, ia, ca, qa)
-            va = (0.0 if lp_parent[ia] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
-            ua = (1.0 - wr) * u + wr
+            if _rigid_end(P, ca):
+                va, ua = 1.0, 0.0
+            else:
+                wr = min(max(goal_rot_w[lp_body[ia]], 0.0), 1.0)
+                u = _bone_weight(lp_pos, ia, ca, qa)
+                va = (0.0 if lp_parent[ia] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
+                ua = (1.0 - wr) * u + wr
             denom += va * va + ua * ua
         if ib >= 0:
-            wr = min(max(goal_rot_w[lp_body[ib]], 0.0), 1.0)
-            u = _bone_weight(lp_pos, ib, cb, qb)
-            vb = (0.0 if lp_parent[ib] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
-            ub = (1.0 - wr) * u + wr
+            if _rigid_end(P, cb):
+                vb, ub = 1.0, 0.0
+            else:
+                wr = min(max(goal_rot_w[lp_body[ib]], 0.0), 1.0)
+                u = _bone_weight(lp_pos, ib, cb, qb)
+                vb = (0.0 if lp_parent[ib] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
+                ub = (1.0 - wr) * u + wr
             denom += vb * vb + ub * ub
         lam = pen / max(denom, MIN_DENOM)
         if ia >= 0:
-            _nudge(delta, ia, _scale(n, lam * va))
-            _nudge(delta, ca, _scale(n, lam * ua))
+            _nudge(delta, count, ia, n, lam * va)
+            _nudge(delta, count, ca, n, lam * ua)
         if ib >= 0:
-            _nudge(delta, ib, _scale(n, -lam * vb))
-            _nudge(delta, cb, _scale(n, -lam * ub))
+            _nudge(delta, count, ib, n, -lam * vb)
+            _nudge(delta, count, cb, n, -lam * ub)
 
         pushed += 1
     if pushed:
+        # a particle pushed by several contacts moves by their mean weighted by their
+        # lengths, not their sum (two contacts pushing a hand the same way would move it
+        # twice as far); weighted by length, a contact ramping in through its skin band
+        # takes its share gradually instead of halving the others' at once
+        for i in range(nlp):
+            k = count[i, 0]
+            if k > 0.0:
+                for j in range(3):
+                    delta[i, j] /= k
+                count[i, 0] = 0.0
+        for i in range(nlp):
+            src = P.lp_parent[i] if _rigid_end(P, i) else i
+            for j in range(3):
+                lp_pos[i, j] += delta[src, j]
         for i in range(nlp):
             for j in range(3):
-                lp_pos[i, j] += delta[i, j]
                 delta[i, j] = 0.0
     return pushed
 
@@ -363,7 +405,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nprox = cl_i[0]
     nmove = cl_i[1]
     w0 = cl_i[3]
-    work = scratch[w0:w0 + W * nprox + lp_pos.shape[0]]
+    work = scratch[w0:w0 + W * nprox + 2 * lp_pos.shape[0]]
     for k in range(nmove):
         _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once

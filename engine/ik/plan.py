@@ -172,6 +172,8 @@ class IKPlan:
                           bodies, IK limb bodies)
     free_bodies (m,) int32 bodies left to the caller
     delegated {body: spine parent}  goals handed to the spine (mouths, heads)
+    self_collision_pairs (p, 2) int64  body pairs the limb phase keeps apart (empty with
+                          ``params.self_collision`` off; ``engine.ik.selfcollision``)
     scratch_shape         shape of the (rows, 3) float64 scratch a solve needs
     """
 
@@ -187,10 +189,11 @@ class IKPlan:
         self.ik_bodies = np.flatnonzero(self.has_ik).astype(np.int32)
         self.free_bodies = np.flatnonzero(~self.has_ik).astype(np.int32)
         self.spine_branch_bodies = tuple(info["branch_bodies"])
+        self.self_collision_pairs = info["cl_pairs"]
         self.plan_i, self.plan_f, self.plan_f3, self.plan_f4, rows = _pack(fields)
         self.scratch_shape = (rows, 3)
-        for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.plan_i, self.plan_f, self.plan_f3,
-                  self.plan_f4):
+        for a in (self.has_ik, self.ik_bodies, self.free_bodies, self.self_collision_pairs, self.plan_i,
+                  self.plan_f, self.plan_f3, self.plan_f4):
             a.flags.writeable = False
         self.blobs = (self.plan_i, self.plan_f, self.plan_f3, self.plan_f4)
         self._checked = None  # the arrays solve_ik last validated (see solve_ik)
@@ -739,11 +742,11 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
     )
-    fields["cl_i"], fields["cl_f"], cl_rows = selfcollision.build(
+    fields["cl_i"], fields["cl_f"], cl_rows, cl_pairs = selfcollision.build(
         c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
         prm.self_collision_rounds, int(sum(sizes)))
     fields["_scratch_size"] = int(sum(sizes)) + cl_rows
-    info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies)
+    info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies, cl_pairs=cl_pairs)
     return fields, info
 
 

@@ -15,9 +15,11 @@ nor shrunk to its thickness), the capsule's ends inside the box's ends. Carried 
 
 Pairs: every two bodies that are not parent and child (the validation grid's
 ``self_intersection`` tests the same pairs), skipping pairs that cannot move apart in the
-limb phase (both fixed, or both on the same bone). Each pair may overlap as deeply as its
-proxies do in the rest pose (creatures are built with boxes overlapping at a shoulder or
-a neck: that is theirs).
+limb phase (both fixed, or both on the same bone) and siblings pivoting about one joint
+(their joints closer than their two radii: a fork's toes, a hand's fingers, which touch
+at the joint by construction and turn into each other there whenever the fork folds).
+Each pair may overlap as deeply as its proxies do in the rest pose (creatures are built
+with boxes overlapping at a shoulder or a neck: that is theirs).
 """
 
 from __future__ import annotations
@@ -56,12 +58,13 @@ def closest_distance(a0, a1, b0, b1):
 
 
 def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: int, work_row: int):
-    """(cl_i int32, cl_f float64, work rows) for one plan. ``enabled`` False gives empty
-    fields (nothing is tested: the solve is the one without self-collision)."""
+    """(cl_i int32, cl_f float64, work rows, pair bodies (npair, 2) int64) for one plan.
+    ``enabled`` False gives empty fields (nothing is tested: the solve is the one without
+    self-collision)."""
     n = c.nbody
     parent = c.body_parent
     if not enabled or n < 3:
-        return np.array([0, 0, 0, work_row, 0], np.int32), np.zeros(0), 0
+        return np.array([0, 0, 0, work_row, 0], np.int32), np.zeros(0), 0, np.zeros((0, 2), np.int64)
     # The bone each limb body swings with: (pivot particle, direction particle).
     bone_of = {}
     for i in range(len(lp_body)):
@@ -98,6 +101,7 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         floats += list(quat_rotate(qs, a0 - ps)) + list(quat_rotate(qs, a1 - ps))
         floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]   # bounding radius about the middle
     pairs = []
+    pair_bodies = []
     allowed = []
     for a in range(n):
         for b in range(a + 1, n):
@@ -110,7 +114,10 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
                 continue          # rigid on the same bone
             a0, a1, ra = segs[a]
             b0, b1, rb = segs[b]
+            if parent[a] == parent[b] and np.linalg.norm(c.body_rootrel_joint[a] - c.body_rootrel_joint[b]) < ra + rb:
+                continue          # siblings pivoting about one joint (a fork's toes, fingers): neighbours
             pairs.append((slot[a], slot[b]))
+            pair_bodies.append((a, b))
             allow = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1))
             reach = floats[C.NF_PROX * slot[a] + 7] + floats[C.NF_PROX * slot[b] + 7] - allow
             allowed += [allow, max(reach, 0.0) ** 2]
@@ -119,4 +126,35 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         ints += list(p)
     cl_i = np.array(ints, np.int32)
     cl_f = np.array(floats + allowed, np.float64)
-    return cl_i, cl_f, C.W * len(order) + len(lp_body)
+    return cl_i, cl_f, C.W * len(order) + 2 * len(lp_body), np.array(pair_bodies, np.int64).reshape(-1, 2)
+
+
+def pose_excess(plan, pos, rot, margin: float = 0.0) -> np.ndarray:
+    """(npair,) how much deeper than at rest each of the plan's pairs' capsules overlap
+    in a world pose ``pos`` (nbody, 3), ``rot`` (nbody, 4) (0 where they do not): the
+    kernel's own measure, on a pose's bodies instead of its particles (tests pick goals
+    outside the body with it). ``margin`` (share of the thinner radius) counts pairs that
+    come that close as overlapping: the kernel poses a fork body's capsule by its first
+    branch alone, so its proxy can touch where the final pose's does not quite."""
+    c = plan.creature
+    pairs = plan.self_collision_pairs
+    out = np.zeros(len(pairs))
+    if len(pairs) == 0:
+        return out
+    segs = {}
+    for b in np.unique(pairs):
+        k, h, r = capsule_of_box(c.body_extent[b])
+        axis = np.zeros(3)
+        axis[k] = 1.0
+        d = quat_rotate(rot[b], axis) * h
+        segs[int(b)] = (pos[b] - d, pos[b] + d, r)
+    rest = {}
+    for j, (a, b) in enumerate(pairs):
+        a0, a1, ra = segs[int(a)]
+        b0, b1, rb = segs[int(b)]
+        if (int(a), int(b)) not in rest:
+            ra0, ra1, _ = _rest_segment(c, int(a))
+            rb0, rb1, _ = _rest_segment(c, int(b))
+            rest[int(a), int(b)] = max(0.0, ra + rb - closest_distance(ra0, ra1, rb0, rb1))
+        out[j] = max(0.0, ra + rb + margin * min(ra, rb) - closest_distance(a0, a1, b0, b1) - rest[int(a), int(b)])
+    return out
