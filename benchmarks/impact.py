@@ -8,7 +8,8 @@ A response succeeds when the output stays finite, the character is back on anima
 to animation) turn no body more than 0.5 rad, no body centre goes more than 1 cm under
 the ground, and for hits that move the root more than 2% of the height its ground-plane
 displacement is within 60 degrees of the impulse. Hits: a random body, a horizontal
-direction, 0.2-2.5 m/s worth of the whole creature's mass (a tap to a knock-down).
+direction, 0.2-2.5 m/s worth of the mass of the hit body's chain (``chain_mass``: its limb, or the
+whole creature for a spine body; a tap to a knock-down).
 Series: 2 and 5 hits 30-600 ms apart. Medians and p99 over all hits. Ends with one JSON
 line (keys as issue 13).
 """
@@ -31,7 +32,7 @@ import engine  # noqa: E402
 from engine.model import build_creature, random_creature_def  # noqa: E402
 from engine.physics.world import rotvec_between  # noqa: E402
 from engine.response import search as S  # noqa: E402
-from engine.response.impact import ImpactParams, _models  # noqa: E402
+from engine.response.impact import ImpactResponse, chain_mass  # noqa: E402
 from engine.response.library import library_for  # noqa: E402
 from engine.runtime import Character  # noqa: E402
 
@@ -50,21 +51,23 @@ def _timed(resp, name, log):
     setattr(resp, name, wrap)
 
 
-def trial(creature, rng, nhits, stats):
+def trial(creature, rng, nhits, stats, params=None):
     ch = Character(creature)
+    if params is not None:
+        ch.response = ImpactResponse(ch, params)
     try:
         ch.play(IDLE)
     except engine.MenagerieError:
         pass
     for _ in range(10):
         ch.tick(DT)
-    mass = _models(creature, ImpactParams())[1].total_mass
     hits, t = [], 0
     for _ in range(nhits):
         d = rng.normal(size=2)
         d /= np.linalg.norm(d)
-        J = np.array([d[0], d[1], 0.0]) * rng.uniform(0.2, 2.5) * mass
-        hits.append((t, int(rng.integers(creature.nbody)), J))
+        b = int(rng.integers(creature.nbody))
+        J = np.array([d[0], d[1], 0.0]) * rng.uniform(0.2, 2.5) * chain_mass(creature, b)
+        hits.append((t, b, J))
         t += int(rng.integers(2, 37))
     p0 = ch.world_positions[0].copy()
     prev = ch.world_rotations.copy()
@@ -97,6 +100,9 @@ def trial(creature, rng, nhits, stats):
         minz = min(minz, float(ch.world_positions[:, 2].min()))
         if k > last and back is None and not ch.reacting:
             back = (k - last) * DT
+    stats.setdefault("impact_turn", []).append(worst_impact)
+    stats.setdefault("handback_turn", []).append(worst_turn)
+    stats.setdefault("anim_turn", []).append(worst_anim)
     why = []
     if back is None or back > 2.0:
         why.append(f"not back in 2 s ({back})")

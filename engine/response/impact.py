@@ -82,6 +82,14 @@ class ImpactParams:
     sim2_mu: float = 0.5             # foot friction, Simulation 2 (paper section 5)
     sim1_mu: float = 1.0             # foot friction, Simulation 1
     max_speed: float = 60.0          # an impulse giving the whole creature more than this (m/s) is absurd
+    # s of the player's crossfade into the found clip at the hand-off. Measured with the IK's
+    # proportional weights (27 chain-sized hits on humanoid, dog, random 4; /tmp script in the
+    # issue-13 note): the hand-back turn is the same with or without a fade (median 0.08 rad,
+    # max 0.29 at 0 and 0.2 s, 0.42 at 0.1 s) but the animation afterwards turns more (median
+    # 0.14 -> 0.24 rad, max 0.51 -> 1.21): the fade mixes the interrupted clip into the pose the
+    # offset was taken against. So none: the offset decay is the fade.
+    handoff_fade: float = 0.0
+    resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
 
 
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -108,6 +116,29 @@ def _models(creature, p: ImpactParams):
             out.append(model_from_creatures(creature, options=opts, settings=WorldSettings(foot=foot)))
         hit = per[key] = tuple(out)
     return hit
+
+
+def chain_bodies(creature, body: int) -> np.ndarray:
+    """The bodies a hit on ``body`` moves first: the whole limb that carries it (the sub-tree
+    of its limb's first body: a hand's arm, a foot's leg, a tail segment's tail), or every
+    body for a hit on the spine (the trunk carries the whole creature)."""
+    limb = int(creature.body_limb[body])
+    if limb < 0:
+        return np.arange(creature.nbody)
+    r = int(creature.limb_root[limb])
+    return np.arange(r, int(creature.body_subtree_end[r]))
+
+
+def chain_mass(creature, body: int, params: ImpactParams | None = None) -> float:
+    """Mass (kg) of ``chain_bodies(creature, body)`` in the response's physics model.
+
+    The rule for sizing a hit: an impulse J on a body sets its chain moving at about
+    |J| / chain_mass before the joints share it with the rest. A hit sized by the whole
+    creature's mass lands on a 0.3 kg foot as tens of m/s and spins it about the ankle
+    (the rigid-body answer, not a reaction); sized by the chain, a tap on a hand moves the
+    arm and a knock-down needs a hit on the trunk."""
+    m = _models(creature, params or ImpactParams())[1].body_mass
+    return float(m[chain_bodies(creature, body)].sum())
 
 
 def _copy_state(dst: PhysicsState, src: PhysicsState) -> None:
@@ -357,16 +388,16 @@ class ImpactResponse:
         _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
 
     def _arm(self, dt: float) -> None:
-        """One tick before the hand-off: the found clip starts (no fade: the pose is the
-        library's, the one the search matched), placed so its root at the matched time sits
+        """One tick before the hand-off: the found clip starts (no fade, ``handoff_fade``: the
+        pose is the library's, the one the search matched), placed so its root at the matched time sits
         on Simulation 1's root at the match (yaw and ground-plane translation)."""
         ch = self.char
         res = self.match
         ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
         start = min(max(self.clip_time - dt, 0.0), self.clip.length)
-        ch.play(self.clip, fade=0.0, start_time=start)
+        ch.play(self.clip, fade=self.params.handoff_fade, start_time=start)
         if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
-            ch.queue(self._resume, fade=0.3)       # after a one-shot reaction: what played before
+            ch.queue(self._resume, fade=self.params.resume_fade)       # after a one-shot reaction: what played before
         self._armed = True
 
     def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
@@ -422,4 +453,4 @@ def _rotate_by_rotvec(rv: np.ndarray, q: np.ndarray) -> None:
     q /= np.linalg.norm(q, axis=1)[:, None]
 
 
-__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES"]
+__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES", "chain_bodies", "chain_mass"]
