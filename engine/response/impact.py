@@ -161,6 +161,7 @@ class ImpactResponse:
         self.clip = None              #: the Animation the response re-enters (None before the search)
         self.clip_time = 0.0          #: the matched time in it, s
         self.match = None             #: the SearchResult
+        self.entry = None             #: the library entry (clip, variant, speed; or a gait cycle)
         self.hits = 0
         self.time = 0.0               # s since the last hit
         self.since_start = 0.0        # s since the response began
@@ -360,9 +361,12 @@ class ImpactResponse:
         k1 = max(k0, min(k1, self._sim1_count - self.library.window))
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
-        res: SearchResult = search(self.library, feats, k0, k1)
+        g = self.char.gait
+        moving = g is not None and (bool(np.any(np.abs(g._cmd_v) > 1e-6)) or abs(g._cmd_w) > 1e-6)
+        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=moving)
         self.match = res
-        self.clip = self.library.clips[res.clip]
+        self.entry = self.library.entries[res.clip]
+        self.clip = self.entry.animation
         self.clip_time = res.clip_time
         self._handoff = res.sim_frame * self._frame_dt
         self._plan_time = self.time
@@ -394,8 +398,23 @@ class ImpactResponse:
         ch = self.char
         res = self.match
         ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
-        start = min(max(self.clip_time - dt, 0.0), self.clip.length)
-        ch.play(self.clip, fade=self.params.handoff_fade, start_time=start)
+        e = self.entry
+        if e.animation is None:          # a gait entry: the character's own locomotion goes on
+            self._armed = True
+            return
+        start = min(max(self.clip_time - dt * e.speed, 0.0), self.clip.length)
+        # fade_out: a clip played with fade 0 ends with a fade-out of 0 by default, and the clip
+        # queued behind it then fades in from nothing: a frame of near-zero clip weight, the
+        # rest pose's goals, a knee flipped 2 rad (measured on the dog after fall_back_low)
+        ch.play(self.clip, variant=e.variant, fade=self.params.handoff_fade, start_time=start, speed=e.speed,
+                fade_out=self.params.resume_fade)
+        name = self.clip.name
+        if name.startswith("fall_"):
+            # a fall goes on into lying and getting up (animations/reactions), then what played before
+            for nxt in ("lie_", "get_up_"):
+                a = self.library.by_name.get(nxt + name[5:])
+                if a is not None:
+                    ch.queue(a, fade=0.2, fade_out=0.2, loop=False)
         if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
             ch.queue(self._resume, fade=self.params.resume_fade)       # after a one-shot reaction: what played before
         self._armed = True
