@@ -89,6 +89,8 @@ class ImpactParams:
     # 0.14 -> 0.24 rad, max 0.51 -> 1.21): the fade mixes the interrupted clip into the pose the
     # offset was taken against. So none: the offset decay is the fade.
     handoff_fade: float = 0.0
+    contact_dv: float = 4.0          # m/s: an instantaneous hit is spread so the struck body alone gains this per frame
+    contact_max: float = 0.1         # s: ... over at most this long (a shove, not a punch, beyond it)
     resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
 
 
@@ -226,6 +228,7 @@ class ImpactResponse:
             raise ImpactError(f"hit on '{name}': duration must be 0..5 s, got {duration!r}")
         # -- validated; from here the hit is applied ---------------------------------------
         ch = self.char
+        p = self.params
         if self.phase in ("idle", "blend"):
             # the displayed pose and its finite-difference velocity become the physics state
             dt = ch._stack.last_dt
@@ -248,9 +251,15 @@ class ImpactResponse:
         self._blend_t = 0.0
         # An instantaneous hit is delivered as a force over one frame, so the joint solver
         # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
-        span = float(duration) if duration > 0.0 else ch._stack.last_dt
+        # A contact lasts at least long enough that the struck body alone would gain no more
+        # than ``contact_dv`` per frame (up to ``contact_max``): a hit sized for the trunk on a
+        # 1.5 kg neck over one frame turned it 1 rad in that frame (humanoid, 44 N s).
+        dt = ch._stack.last_dt
+        m_b = float(self.model2.body_mass[b])
+        soft = np.linalg.norm(J) * dt / (max(m_b, 1e-9) * p.contact_dv)
+        span = float(duration) if duration > 0.0 else min(max(dt, soft), max(p.contact_max, dt))
         self._contact.append([b, J / span, point, span])
-        self._contact_end = duration
+        self._contact_end = span
         # the servos hold the interrupted clip's pose as it was at the impact (Simulation 1)
         servo_targets_from_pose(self.model2, ch.world_rotations, self._hold_rot)
         np.copyto(self.sim2.joint_target_rot, self._hold_rot)
@@ -402,6 +411,8 @@ class ImpactResponse:
         if e.animation is None:          # a gait entry: the character's own locomotion goes on
             self._armed = True
             return
+        for q in list(ch.player.queues[0]):     # what an earlier response queued (a fall's lying, ...)
+            ch.player.stop(q.handle)
         start = min(max(self.clip_time - dt * e.speed, 0.0), self.clip.length)
         # fade_out: a clip played with fade 0 ends with a fade-out of 0 by default, and the clip
         # queued behind it then fades in from nothing: a frame of near-zero clip weight, the

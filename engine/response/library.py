@@ -12,23 +12,29 @@ system, so a spider's library is a spider's):
 
 * every animation in ``animations/`` and ``animations/reactions/`` (the generalized
   staggers, brace, falls, lying and getting up) that binds to the creature, in **every
-  variant** (a wave with each hand, and each mirror image), each at three playback speeds
-  (0.75, 1, 1.33: the same poses at other velocities, which the window distance sees);
-* **gait cycles** of the creature's own gait system: forward at three speeds, backward,
-  sideways both ways and turning both ways (speeds in leg lengths per second), recorded
-  after a second of warm-up. A gait entry is matched only while the character itself
+  variant** (a wave with each hand, and each mirror image), each at seven playback speeds
+  (0.6 to 1.25: the same poses at other velocities, which the window distance sees);
+* **gait cycles** of the creature's own gait system (``GAIT_COMMANDS``: walking forward,
+  backward, sideways both ways and turning both ways, sneaking, running straight and
+  turning; speeds in leg lengths per second), recorded after half a second of warm-up.
+  A gait entry is matched only while the character itself
   locomotes (``ImpactResponse`` passes ``allow_gait``): a response cannot start a walk the
   game did not ask for;
 * extra Animations a caller passes (a capture's clips on its own skeleton).
 
 The frames are made by a ``Crowd`` of characters (one per entry, jiggle off) ticked
-together, so the batched kernels do the work: about 0.04 ms per frame of a 25-body
-creature on one core.
+together, so the batched kernels do the work.
+
+Cached on disk: the recorded frames are kept in ``$MENAGERIE_CACHE/motion_library/``
+(default ``~/.cache/menagerie``), keyed by the creature's arrays, the content of every
+clip, this module's settings and the source of the engine that posed them, so any change
+to any of those builds afresh. ``cache=False`` skips it; an unwritable cache is ignored.
 """
 
 from __future__ import annotations
 
 import glob
+import hashlib
 import os
 import time
 import weakref
@@ -41,12 +47,14 @@ from engine.errors import MenagerieError
 RATE = 30.0
 WINDOW = 6           # frames per search window (0.2 s at 30 Hz)
 UNIQUE_TOL = 0.01    # a window start is kept when its weighted pose differs this much from the last kept
-SPEEDS = (0.75, 1.0, 4.0 / 3.0)          # playback speeds of every clip
-GAIT_SECONDS = 3.0   # recorded per gait command, after GAIT_WARMUP
-GAIT_WARMUP = 1.0
-#: gait commands: (forward, left) in leg lengths per second, turn rate rad/s
-GAIT_COMMANDS = ((0.5, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), (-0.5, 0.0, 0.0), (0.0, 0.5, 0.0),
-                 (0.0, -0.5, 0.0), (0.8, 0.0, 1.0), (0.8, 0.0, -1.0))
+SPEEDS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.25)   # playback speeds of every clip (faster falls turned feet 0.7 rad/frame)
+GAIT_SECONDS = 2.5   # recorded per gait command, after GAIT_WARMUP (the gait controller is Python:
+GAIT_WARMUP = 0.5    # about 0.6 ms a step, the most expensive frames of the library)
+#: gait commands: style, (forward, left) in leg lengths per second, turn rate rad/s
+GAIT_COMMANDS = (("walk", 0.5, 0.0, 0.0), ("walk", 1.0, 0.0, 0.0), ("walk", -0.5, 0.0, 0.0),
+                 ("walk", 0.0, 0.5, 0.0), ("walk", 0.0, -0.5, 0.0), ("walk", 0.8, 0.0, 1.0),
+                 ("walk", 0.8, 0.0, -1.0), ("sneak", 0.5, 0.0, 0.0), ("run", 1.5, 0.0, 0.0),
+                 ("run", 2.0, 0.0, 0.0), ("run", 1.5, 0.0, 0.8), ("run", 1.5, 0.0, -0.8))
 CROWD = 48           # characters ticked together
 
 
@@ -58,6 +66,7 @@ class LibraryEntry:
     speed: float = 1.0
     gait: tuple | None = None     # (forward, left, turn) in m/s and rad/s for a gait entry
     frames: int = 0
+    style: str | None = None      # the gait style
 
     @property
     def loop(self) -> bool:
@@ -85,10 +94,45 @@ def _jobs(creature, clips, rate, window, speeds, gaits):
                 jobs.append(LibraryEntry(f"{anim.name}[{vid}]x{sp:.2f}", anim, v, sp, None, nfr))
     if gaits and creature.nleg:
         leg = float(np.mean(creature.leg_length))
-        for f, lft, turn in GAIT_COMMANDS:
-            jobs.append(LibraryEntry(f"gait({f:g},{lft:g},{turn:g})", None, 0, 1.0, (f * leg, lft * leg, turn),
-                                     int(GAIT_SECONDS * rate)))
+        for style, f, lft, turn in GAIT_COMMANDS:
+            jobs.append(LibraryEntry(f"gait:{style}({f:g},{lft:g},{turn:g})", None, 0, 1.0,
+                                     (f * leg, lft * leg, turn), int(GAIT_SECONDS * rate), style))
     return jobs
+
+
+def _cache_dir() -> str:
+    return os.path.join(os.environ.get("MENAGERIE_CACHE") or os.path.join(os.path.expanduser("~"), ".cache",
+                                                                          "menagerie"), "motion_library")
+
+
+_ENGINE_HASH: list = []
+
+
+def _engine_hash() -> str:
+    if not _ENGINE_HASH:
+        root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        h = hashlib.sha1()
+        for path in sorted(glob.glob(os.path.join(root, "**", "*.py"), recursive=True)):
+            with open(path, "rb") as f:
+                h.update(f.read())
+        _ENGINE_HASH.append(h.hexdigest())
+    return _ENGINE_HASH[0]
+
+
+def _cache_key(creature, jobs, rate) -> str:
+    h = hashlib.sha1()
+    for name in ("body_parent", "body_caps", "body_rest_pos", "body_rest_rot", "body_joint", "body_extent"):
+        h.update(np.ascontiguousarray(getattr(creature, name)).tobytes())
+    h.update("\n".join(creature.body_names).encode())
+    seen = set()
+    for e in jobs:
+        h.update(repr((e.name, e.variant, e.speed, e.gait, e.frames, e.style)).encode())
+        if e.animation is not None and id(e.animation) not in seen:
+            seen.add(id(e.animation))
+            h.update(repr(e.animation).encode())
+    h.update(repr((rate, GAIT_WARMUP, CROWD)).encode())
+    h.update(_engine_hash().encode())
+    return h.hexdigest()
 
 
 def _record(creature, jobs, rate, progress_t0, progress):
@@ -112,7 +156,8 @@ def _record(creature, jobs, rate, progress_t0, progress):
                     ch.play(e.animation, variant=e.variant, fade=0.0, speed=e.speed)
                 else:
                     ch.locomote(e.gait[:2], e.gait[2])
-            except (MenagerieError, ValueError):
+                    ch.gait.set_style(e.style)
+            except (MenagerieError, ValueError, KeyError):
                 continue
             chars.append(ch)
             live.append(i)
@@ -155,7 +200,7 @@ def _record(creature, jobs, rate, progress_t0, progress):
 
 class MotionLibrary:
     def __init__(self, creature, clips, *, rate: float = RATE, window: int = WINDOW, progress: bool = True,
-                 speeds=SPEEDS, gaits: bool = True) -> None:
+                 speeds=SPEEDS, gaits: bool = True, cache: bool = True) -> None:
         from engine.response.search import body_weights, build_prefilter, frame_distance_rows, library_windows, yaw_of
 
         t0 = time.perf_counter()
@@ -163,7 +208,42 @@ class MotionLibrary:
         self.rate = rate
         self.window = window
         jobs = _jobs(creature, clips, rate, window, speeds, gaits)
-        rec = _record(creature, jobs, rate, t0, progress)
+        rec = None
+        path = None
+        self.from_cache = False
+        if cache:
+            path = os.path.join(_cache_dir(), _cache_key(creature, jobs, rate) + ".npz")
+            try:
+                with np.load(path) as z:
+                    kept, lens = z["kept"], z["lens"]
+                    pos, rot = z["pos"], z["rot"]
+                at = np.r_[0, np.cumsum(lens)]
+                rec = {int(i): (pos[at[j]:at[j + 1]], rot[at[j]:at[j + 1]]) for j, i in enumerate(kept)}
+                self.from_cache = True
+            except (OSError, KeyError, ValueError):
+                rec = None
+        if rec is None:
+            import numba
+
+            # one thread: the crowd's parallel IK kernel spent 20 ms a call against a loaded
+            # machine's other work (2 ms alone); the build is meant for one core
+            threads = numba.get_num_threads()
+            numba.set_num_threads(1)
+            try:
+                rec = _record(creature, jobs, rate, t0, progress)
+            finally:
+                numba.set_num_threads(threads)
+            if path is not None and rec:
+                kept = sorted(rec)
+                try:
+                    os.makedirs(os.path.dirname(path), exist_ok=True)
+                    tmp = f"{path}.{os.getpid()}.tmp.npz"
+                    np.savez(tmp, kept=np.array(kept, np.int64), lens=np.array([rec[i][0].shape[0] for i in kept]),
+                             pos=np.concatenate([rec[i][0] for i in kept]),
+                             rot=np.concatenate([rec[i][1] for i in kept]))
+                    os.replace(tmp, path)
+                except OSError:
+                    pass
         if not rec:
             raise MenagerieError(f"no animation plays on creature '{creature.name}': its motion library is empty")
         keep = sorted(rec)

@@ -26,7 +26,7 @@ Unique-frame culling keeps the library starts that differ from the last kept one
 Coarse to fine (a game frame holds a 20,000-frame library): every culled window has a
 short feature vector (``build_prefilter``): the positions of the heaviest bodies (by
 ``wp_b``, up to ``PREFILTER_BODIES``, together most of the weight) and the x and z axes
-of the heaviest few, at frames 0, W/2 and W-1, each scaled by the square root of its
+of the heaviest two, at the window's first and last frames, each scaled by the square root of its
 weight, so the squared Euclidean distance between two vectors is a weighted sum of
 squares of the same terms D adds up. One matrix product scores every culled window
 against every simulation start; only the ``PREFILTER_K`` best per start get the exact
@@ -44,7 +44,7 @@ import numpy as np
 REFINE = 3
 SIM_STRIDE = 3          # coarse simulation starts every 0.1 s at 30 Hz
 PREFILTER_BODIES = 8    # positions of at most this many heaviest bodies in the prefilter
-PREFILTER_AXES = 4      # axes of this many
+PREFILTER_AXES = 2      # axes of this many
 PREFILTER_K = 48        # windows per simulation start that get the exact distance
 
 
@@ -214,7 +214,7 @@ def build_prefilter(lib) -> Prefilter:
     bodies = np.sort(order[:m])
     axes = np.sort(order[: min(PREFILTER_AXES, len(order))])
     W = lib.window
-    frames = np.unique(np.array([0, W // 2, W - 1]))
+    frames = np.unique(np.array([0, W - 1]))
     wi = window_weights(W)[frames]
     scale_pos = np.sqrt(wi[:, None] * w[bodies][None, :]) / h
     scale_ax = np.sqrt(wi[:, None] * 0.5 * w[axes][None, :]) * 0.5
@@ -274,24 +274,27 @@ def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, ex
         if allowed is not None:
             score[~allowed] = np.inf
         cand = np.argpartition(score, PREFILTER_K - 1, axis=0)[:PREFILTER_K]     # (K, nsim)
-    best = (np.inf, -1, -1)
-    ncand = 0
-    for j, k in enumerate(ks):
-        wb = lib.weights.copy()
-        if f.support_body[k] >= 0:
-            wb[f.support_body[k]] += 1.0
-        if use_pf:
-            c = cand[:, j]
-            d = _exact(lib, sps[j], sqs[j], wb, wi, h, lib.win_pos[c], lib.win_rot[c])
-        else:
-            c = np.arange(S)
-            d = _exact(lib, sps[j], sqs[j], wb, wi, h, lib.win_pos, lib.win_rot)
-        if allowed is not None:
-            d = np.where(allowed[c], d, np.inf)
-        ncand += d.shape[0]
-        i = int(np.argmin(d))
-        if d[i] < best[0]:
-            best = (float(d[i]), k, int(lib.starts[c[i]]))
+    nsim = len(ks)
+    wb = np.repeat(lib.weights[None, :], nsim, 0)
+    sup = f.support_body[np.asarray(ks)]
+    has = sup >= 0
+    wb[np.flatnonzero(has), sup[has]] += 1.0
+    if use_pf:
+        c = cand.T                                                       # (nsim, K)
+        d = lib.win_pos[c] - sps[:, None]                                # (nsim, K, W, n, 3)
+        dp = np.sqrt(np.einsum("jswbk,jswbk->jswb", d, d)) * (1.0 / h)
+        dot = np.abs(np.einsum("jswbk,jwbk->jswb", lib.win_rot[c], sqs))
+        np.minimum(dot, 1.0, out=dot)
+        dp += np.arccos(dot)
+        D = np.einsum("jswb,jb,w->js", dp, wb, wi)
+    else:
+        c = np.repeat(np.arange(S)[None, :], nsim, 0)
+        D = np.stack([_exact(lib, sps[j], sqs[j], wb[j], wi, h, lib.win_pos, lib.win_rot) for j in range(nsim)])
+    if allowed is not None:
+        D = np.where(allowed[c], D, np.inf)
+    ncand = int(D.size)
+    jj, ii = np.unravel_index(int(np.argmin(D)), D.shape)
+    best = (float(D[jj, ii]), ks[jj], int(lib.starts[c[jj, ii]]))
     # local refinement: every start around the best, every sim start around it
     _, kb, sb = best
     cand = np.arange(max(0, sb - REFINE), min(lib.frames, sb + REFINE + 1))
