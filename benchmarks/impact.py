@@ -202,7 +202,7 @@ def main() -> None:
     r = ch.response
     feats = S.window_features(hum, r._sim1_pos[: r._sim1_count], r._sim1_rot[: r._sim1_count])
     ts = []
-    for _ in range(30):
+    for _ in range(300):
         t = time.perf_counter()
         S.search(lib, feats, 6, 30)
         ts.append(time.perf_counter() - t)

@@ -109,9 +109,7 @@ def test_the_impact_tick_does_not_pop():
     assert np.linalg.norm(rotvec_between(ref.world_rotations, ch.world_rotations), axis=1).max() < 0.05
 
 
-@pytest.mark.parametrize("n", [pytest.param(2, marks=pytest.mark.xfail(
-    strict=True, reason="the transition's servos turn the light right foot 0.7 rad in the tick the hand-off "
-    "to fall_left lands on (issue-13 note, s22-impact2: failure cases)")), 5])
+@pytest.mark.parametrize("n", [2, 5])
 def test_hits_in_series(n):
     rng = np.random.default_rng(n)
     ch = _standing("humanoid")

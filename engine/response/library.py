@@ -46,7 +46,7 @@ from engine.errors import MenagerieError
 
 RATE = 30.0
 WINDOW = 6           # frames per search window (0.2 s at 30 Hz)
-UNIQUE_TOL = 0.01    # a window start is kept when its weighted pose differs this much from the last kept
+UNIQUE_TOL = 0.02    # a window start is kept when its weighted pose differs this much from the last kept
 SPEEDS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.25)   # playback speeds of every clip (faster falls turned feet 0.7 rad/frame)
 GAIT_SECONDS = 2.5   # recorded per gait command, after GAIT_WARMUP (the gait controller is Python:
 GAIT_WARMUP = 0.5    # about 0.6 ms a step, the most expensive frames of the library)

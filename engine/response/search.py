@@ -41,11 +41,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from engine.response import _kernels as K
+
 REFINE = 3
-SIM_STRIDE = 3          # coarse simulation starts every 0.1 s at 30 Hz
+SIM_STRIDE = 6          # coarse simulation starts every 0.2 s at 30 Hz (the refinement covers +-0.1 s)
 PREFILTER_BODIES = 8    # positions of at most this many heaviest bodies in the prefilter
 PREFILTER_AXES = 2      # axes of this many
-PREFILTER_K = 48        # windows per simulation start that get the exact distance
+PREFILTER_K = 32        # windows per simulation start that get the exact distance
 
 
 class SearchResult(NamedTuple):
@@ -157,20 +159,6 @@ def window_weights(W: int) -> np.ndarray:
     return 1.0 - 0.75 * i * i
 
 
-def _distances(lib, f, k, wpos, wrot, h, wi):
-    """Distance of sim window k to library windows (S, W, n, 3/4)."""
-    sp, sq = _sim_window(lib, f, k)
-    wb = lib.weights.copy()
-    if f.support_body[k] >= 0:
-        wb[f.support_body[k]] += 1.0
-    d = wpos - sp[None]
-    dp = np.sqrt(np.einsum("swbk,swbk->swb", d, d)) * (1.0 / h)
-    dot = np.abs(np.einsum("swbk,wbk->swb", wrot, sq))
-    np.minimum(dot, 1.0, out=dot)
-    dp += np.arccos(dot)             # 0.5 x the angle 2 acos|q1.q2|
-    return (dp @ wb) @ wi
-
-
 class Prefilter(NamedTuple):
     bodies: np.ndarray      # (m,) bodies whose positions are features
     axes: np.ndarray        # (a,) bodies whose x and z axes are features
@@ -235,16 +223,6 @@ def _sim_windows(lib, f: SimFeatures, ks):
     return _unyaw(yaw, xy, f.pos[idx], f.rot[idx])
 
 
-def _exact(lib, sp, sq, wb, wi, h, wpos, wrot):
-    """D of one sim window (W, n, 3/4) against windows (K, W, n, 3/4)."""
-    d = wpos - sp[None]
-    dp = np.sqrt(np.einsum("swbk,swbk->swb", d, d)) * (1.0 / h)
-    dot = np.abs(np.einsum("swbk,wbk->swb", wrot, sq))
-    np.minimum(dot, 1.0, out=dot)
-    dp += np.arccos(dot)
-    return (dp @ wb) @ wi
-
-
 def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, exhaustive: bool = False) -> SearchResult:
     """The best (sim start in k0..k1, library start) pair; see the module docstring."""
     h = max(lib.creature.height, 1e-6)
@@ -259,53 +237,52 @@ def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, ex
     sps, sqs = _sim_windows(lib, f, ks)
     pf = getattr(lib, "prefilter", None)
     S = len(lib.starts)
-    use_pf = not exhaustive and pf is not None and S > PREFILTER_K
-    if use_pf:
-        q = _feature_rows(pf, sps, sqs)                                   # (nsim, D)
-        # einsum, not a BLAS product: BLAS's threads spin against a game's own threads (13 ms
-        # spikes measured on a loaded 2-core machine against 0.6 ms single-threaded)
-        score = pf.sq[:, None] - 2.0 * np.einsum("sd,kd->sk", pf.feats, q) + np.einsum("kd,kd->k", q, q)[None, :]
-        for j, k in enumerate(ks):
-            b = int(f.support_body[k])
-            if b >= 0:
-                fi = int(np.flatnonzero(pf.feet == b)[0])
-                g = _foot_rows(pf, sps[j:j + 1], b, h)[0]
-                score[:, j] += pf.foot_sq[fi] - 2.0 * np.einsum("sd,d->s", pf.foot_feats[fi], g) + float(g @ g)
-        if allowed is not None:
-            score[~allowed] = np.inf
-        cand = np.argpartition(score, PREFILTER_K - 1, axis=0)[:PREFILTER_K]     # (K, nsim)
     nsim = len(ks)
     wb = np.repeat(lib.weights[None, :], nsim, 0)
     sup = f.support_body[np.asarray(ks)]
     has = sup >= 0
     wb[np.flatnonzero(has), sup[has]] += 1.0
-    if use_pf:
-        c = cand.T                                                       # (nsim, K)
-        d = lib.win_pos[c] - sps[:, None]                                # (nsim, K, W, n, 3)
-        dp = np.sqrt(np.einsum("jswbk,jswbk->jswb", d, d)) * (1.0 / h)
-        dot = np.abs(np.einsum("jswbk,jwbk->jswb", lib.win_rot[c], sqs))
-        np.minimum(dot, 1.0, out=dot)
-        dp += np.arccos(dot)
-        D = np.einsum("jswb,jb,w->js", dp, wb, wi)
+    if not exhaustive and pf is not None and S > PREFILTER_K:
+        q = _feature_rows(pf, sps, sqs)                                   # (nsim, D) float32
+        E = pf.foot_feats.shape[2] if pf.foot_feats.ndim == 3 else len(pf.frames) * 3
+        g = np.zeros((nsim, E), np.float32)
+        foot_of = np.full(nsim, -1, np.int64)
+        for j in np.flatnonzero(has):
+            hit = np.flatnonzero(pf.feet == sup[j])
+            if hit.size:
+                foot_of[j] = int(hit[0])
+                g[j] = _foot_rows(pf, sps[j:j + 1], int(sup[j]), h)[0]
+        ok = allowed if allowed is not None else np.ones(S, bool)
+        c = np.empty((nsim, PREFILTER_K), np.int64)
+        scores = np.empty((nsim, PREFILTER_K))
+        K.prefilter_topk(pf.feats, pf.sq, q, pf.foot_feats, pf.foot_sq, g, foot_of, ok, c, scores)
     else:
-        c = np.repeat(np.arange(S)[None, :], nsim, 0)
-        D = np.stack([_exact(lib, sps[j], sqs[j], wb[j], wi, h, lib.win_pos, lib.win_rot) for j in range(nsim)])
-    if allowed is not None:
-        D = np.where(allowed[c], D, np.inf)
+        c = np.repeat(np.arange(S, dtype=np.int64)[None, :], nsim, 0)
+        if allowed is not None:
+            c[:, ~allowed] = -1
+    D = np.empty(c.shape)
+    K.window_distances(lib.win_pos, lib.win_rot, c, sps, sqs, wb, wi, 1.0 / h, D)
     ncand = int(D.size)
     jj, ii = np.unravel_index(int(np.argmin(D)), D.shape)
     best = (float(D[jj, ii]), ks[jj], int(lib.starts[c[jj, ii]]))
-    # local refinement: every start around the best, every sim start around it
+    # local refinement: every start around the best, every sim start around it (one kernel call)
     _, kb, sb = best
     cand = np.arange(max(0, sb - REFINE), min(lib.frames, sb + REFINE + 1))
     cand = cand[lib.valid[cand] & (lib.clip_of[cand] == lib.clip_of[sb])]
     wpos, wrot = library_windows(lib, cand)
-    for k in range(max(k0, kb - REFINE), min(k1, kb + REFINE) + 1):
-        d = _distances(lib, f, k, wpos, wrot, h, wi)
-        ncand += d.shape[0]
-        j = int(np.argmin(d))
-        if d[j] < best[0]:
-            best = (float(d[j]), k, int(cand[j]))
+    rks = list(range(max(k0, kb - REFINE), min(k1, kb + REFINE) + 1))
+    rp, rq = _sim_windows(lib, f, rks)
+    rwb = np.repeat(lib.weights[None, :], len(rks), 0)
+    rsup = f.support_body[np.asarray(rks)]
+    rhas = rsup >= 0
+    rwb[np.flatnonzero(rhas), rsup[rhas]] += 1.0
+    rc = np.repeat(np.arange(len(cand), dtype=np.int64)[None, :], len(rks), 0)
+    RD = np.empty(rc.shape)
+    K.window_distances(np.ascontiguousarray(wpos), np.ascontiguousarray(wrot), rc, rp, rq, rwb, wi, 1.0 / h, RD)
+    ncand += int(RD.size)
+    jj, ii = np.unravel_index(int(np.argmin(RD)), RD.shape)
+    if RD[jj, ii] < best[0]:
+        best = (float(RD[jj, ii]), rks[jj], int(cand[ii]))
     dist, k, s = best
     yaw = float(f.yaw[k] - lib.yaw[s])
     c, sn = np.cos(yaw), np.sin(yaw)
