@@ -48,6 +48,7 @@ FRONT = "{type: foot, x: front, y_space: setspace}"
 GRASP = "{type: grasper}"
 SPINE = "{type: spine}"
 FOOTSPEC = "{mode: rest, scale: limb_length}"
+SIZESPEC = "{mode: rest, scale: creature_size}"
 LIFT = 0.12     # step height, limb lengths
 
 # direction -> (unit ground vector (x, y), lean axis (x, y, z) for 'top goes along the push')
@@ -62,34 +63,38 @@ def r(x):
     return round(x, 4)
 
 def stagger(d):
+    """Ends displaced: the root and every foot by the same ``root_step`` creature sizes, the
+    rest pose moved, so the impact response can move the character's placement by it at the
+    end (clips have no root motion) and what played before goes on from there."""
     (ux, uy), ax, sg = DIRS[d]
     lean = lambda deg: [ax[0], ax[1], ax[2], r(sg * deg)]
-    root_step = 0.18
-    step = 0.45                  # limb lengths
+    root_step = 0.35
+    T = 1.1
+    end = [r(ux * root_step), r(uy * root_step), 0]
     # the leading feet: the side the push goes to (left/right), else the left ones first
     first, second = (LEFT, RIGHT) if d != "right" else (RIGHT, LEFT)
-    def foot(t0, s):
-        return [(0.0, [0, 0, 0]), (t0, [0, 0, 0]), (t0 + 0.12, [r(ux * s * 0.5), r(uy * s * 0.5), LIFT]),
-                (t0 + 0.24, [r(ux * s), r(uy * s), 0]), (0.95, [r(ux * s), r(uy * s), 0]),
-                (1.1 + (0.0 if t0 < 0.1 else 0.12), [r(ux * s * 0.4), r(uy * s * 0.4), LIFT * 0.6]),
-                (1.25 + (0.0 if t0 < 0.1 else 0.12), [0, 0, 0]), (1.6, [0, 0, 0])]
+    def foot(t0, over):
+        return [(0.0, [0, 0, 0]), (t0, [0, 0, 0]),
+                (t0 + 0.12, [r(ux * root_step * 0.5 * over), r(uy * root_step * 0.5 * over), 0.05]),
+                (t0 + 0.25, [r(ux * root_step * over), r(uy * root_step * over), 0]), (0.75, [r(ux * root_step * over), r(uy * root_step * over), 0]),
+                (0.85, [r(ux * root_step * (1 + over) / 2), r(uy * root_step * (1 + over) / 2), 0.03]), (0.95, end), (T, end)]
     chans = [
         channel("root", ROOT, priority=1,
-                pos=[(0.0, [0, 0, 0]), (0.25, [r(ux * root_step * 0.7), r(uy * root_step * 0.7), -0.04]),
-                     (0.55, [r(ux * root_step), r(uy * root_step), -0.03]), (0.95, [r(ux * root_step), r(uy * root_step), -0.02]),
-                     (1.35, [0, 0, 0]), (1.6, [0, 0, 0])],
-                rot=[(0.0, lean(0)), (0.18, lean(14)), (0.5, lean(6)), (0.95, lean(2)), (1.6, lean(0))]),
+                pos=[(0.0, [0, 0, 0]), (0.25, [r(ux * root_step * 0.6), r(uy * root_step * 0.6), -0.04]),
+                     (0.55, [r(ux * root_step * 0.95), r(uy * root_step * 0.95), -0.03]), (0.9, [end[0], end[1], -0.01]),
+                     (T, end)],
+                rot=[(0.0, lean(0)), (0.18, lean(14)), (0.5, lean(6)), (0.9, lean(1)), (T, lean(0))]),
         # rotations are in character space (rest mode): the spine's keys carry the root's lean
-        channel("spine", SPINE, rot=[(0.0, lean(0)), (0.12, lean(20)), (0.45, lean(4)), (0.95, lean(2)), (1.6, lean(0))]),
-        channel("lead_feet", first, pos=foot(0.05, step), rot=None, posspec=FOOTSPEC),
-        channel("other_feet", second, pos=foot(0.3, step * 0.85), rot=None, posspec=FOOTSPEC),
+        channel("spine", SPINE, rot=[(0.0, lean(0)), (0.12, lean(20)), (0.45, lean(4)), (0.9, lean(1)), (T, lean(0))]),
+        channel("lead_feet", first, pos=foot(0.05, 1.25), rot=None, posspec=SIZESPEC, flat=True),
+        channel("other_feet", second, pos=foot(0.3, 0.8), rot=None, posspec=SIZESPEC, flat=True),
         channel("arms", GRASP, posspec="{mode: rest, scale: limb_length}",
                 pos=[(0.0, [0, 0, 0]), (0.2, [r(-ux * 0.15), r(-uy * 0.15), 0.25]), (0.6, [r(-ux * 0.05), r(-uy * 0.05), 0.1]),
-                     (1.2, [0, 0, 0]), (1.6, [0, 0, 0])]),
+                     (T, [0, 0, 0])]),
     ]
     return clip(f"stagger_{d}", f"Stagger {d}: pushed toward the {d}, the body leans and the feet step that way "
-                f"(leading feet, then the others), then step back under the body (root in creature sizes, "
-                f"feet in limb lengths).", 1.6, chans)
+                f"(leading feet past, the others short, then together) and it ends {root_step} creature sizes "
+                f"over, in the rest pose (root and feet in creature sizes).", T, chans)
 
 def brace():
     chans = [

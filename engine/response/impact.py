@@ -17,6 +17,8 @@ Phases (``ImpactResponse.phase``):
                     ease-in/out slerp of theta_d) and the servos track it.
     ``blend``       at the match time: animation again, plus the physics-minus-animation
                     offset of every body decaying as a critically damped spring.
+    ``settle``      after the blend, while a stagger plays to its end: then the placement
+                    moves by the stagger's displacement and the clip played before resumes.
     ``idle``        nothing running (``reacting`` is False).
 
 Choices where the paper is silent (see ``../shared/research/impact.md`` 1.9):
@@ -60,7 +62,7 @@ from engine.physics.world import PhysicsState, rotvec_between
 from engine.response.library import MotionLibrary, library_for
 from engine.response.search import SearchResult, search, window_features
 
-PHASES = ("idle", "burst", "transition", "blend")
+PHASES = ("idle", "burst", "transition", "blend", "settle")
 
 
 class ImpactError(MenagerieError):
@@ -177,6 +179,8 @@ class ImpactResponse:
         self._hold_rot = np.zeros((self.model1.njoint, 4))
         self._found_rot = np.zeros((self.model1.njoint, 4))
         self._armed = False
+        self._settle_at = None
+        self._settle_d = np.zeros(3)
         self._plan_time = 0.0
         self._resume = None           # the looping clip playing before the response
         self._prev_anim_pos = np.zeros((n, 3))
@@ -229,7 +233,7 @@ class ImpactResponse:
         # -- validated; from here the hit is applied ---------------------------------------
         ch = self.char
         p = self.params
-        if self.phase in ("idle", "blend"):
+        if self.phase in ("idle", "blend", "settle"):
             # the displayed pose and its finite-difference velocity become the physics state
             dt = ch._stack.last_dt
             s = state_from_kinematic(self.model2, ch.world_positions, ch.world_rotations, ch._prev_world_pos,
@@ -243,6 +247,7 @@ class ImpactResponse:
                 self.sim1_trace = []
             self._fade_handle = None
         self.phase = "burst"
+        self._settle_at = None
         self.hits += 1
         self.time = 0.0
         self.clip = None
@@ -300,14 +305,18 @@ class ImpactResponse:
                 np.copyto(self._prev_anim_rot, anim_rot)
                 np.copyto(anim_pos, self.sim2.body_pos)
                 np.copyto(anim_rot, self.sim2.body_rot)
-        elif self.phase == "blend":
+        elif self.phase in ("blend", "settle"):
+            if self._settle_at is not None and self.time + dt >= self._settle_at:
+                self._settle()
             self._blend_t += dt
             t = self._blend_t
             w = p.blend_omega
             e = math.exp(-w * t)
             kx = (1.0 + w * t) * e
             kv = t * e
-            if t >= p.blend_time:
+            if t >= p.blend_time and self._settle_at is not None:
+                self.phase = "settle"                # the offset is gone; a stagger still to end
+            elif t >= p.blend_time:
                 self.phase = "idle"
                 from engine.runtime import _REACTING
 
@@ -426,9 +435,32 @@ class ImpactResponse:
                 a = self.library.by_name.get(nxt + name[5:])
                 if a is not None:
                     ch.queue(a, fade=0.2, fade_out=0.2, loop=False)
-        if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
+        self._settle_at = None
+        if name.startswith("stagger_"):
+            # A stagger ends in the rest pose moved by d (animations/reactions): when it ends the
+            # placement moves by d and what played before goes on from there, with no slide back
+            # (clips carry no root motion). d from the library's frames of this entry.
+            lib = self.library
+            i0 = int(np.searchsorted(lib.clip_of, res.clip))
+            i1 = int(np.searchsorted(lib.clip_of, res.clip, side="right")) - 1
+            dc = lib.pos[i1, 0, :2] - lib.pos[i0, 0, :2]
+            c, sn = math.cos(res.place_yaw), math.sin(res.place_yaw)
+            self._settle_d = np.array([c * dc[0] - sn * dc[1], sn * dc[0] + c * dc[1], 0.0])
+            self._settle_at = self._handoff + (self.clip.length - self.clip_time) / e.speed - 1.5 * dt
+        elif not self.clip.loop and self._resume is not None and self._resume is not self.clip:
             ch.queue(self._resume, fade=self.params.resume_fade)       # after a one-shot reaction: what played before
         self._armed = True
+
+    def _settle(self) -> None:
+        """The stagger's end: the placement moves by its displacement, what played before
+        resumes (same pose: the stagger ends in the rest pose moved by it)."""
+        ch = self.char
+        ch.set_placement(position=ch.position + self._settle_d, teleport=True)
+        if self._resume is not None:
+            ch.play(self._resume, fade=0.0)
+        else:
+            ch.stop(fade=0.0)
+        self._settle_at = None
 
     def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
         """Hand-off: the offset between physics and animation, and its velocity."""
