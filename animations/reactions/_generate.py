@@ -68,24 +68,28 @@ def stagger(d):
     end (clips have no root motion) and what played before goes on from there."""
     (ux, uy), ax, sg = DIRS[d]
     lean = lambda deg: [ax[0], ax[1], ax[2], r(sg * deg)]
-    root_step = 0.35
+    root_step = 0.2      # creature sizes: more and a long creature's feet cannot follow its root
     T = 1.1
     end = [r(ux * root_step), r(uy * root_step), 0]
     # the leading feet: the side the push goes to (left/right), else the left ones first
     first, second = (LEFT, RIGHT) if d != "right" else (RIGHT, LEFT)
     def foot(t0, over):
-        return [(0.0, [0, 0, 0]), (t0, [0, 0, 0]),
-                (t0 + 0.12, [r(ux * root_step * 0.5 * over), r(uy * root_step * 0.5 * over), 0.05]),
-                (t0 + 0.25, [r(ux * root_step * over), r(uy * root_step * over), 0]), (0.75, [r(ux * root_step * over), r(uy * root_step * over), 0]),
-                (0.85, [r(ux * root_step * (1 + over) / 2), r(uy * root_step * (1 + over) / 2), 0.03]), (0.95, end), (T, end)]
+        # lift, travel, set down: a foot moves across the ground only while it is up
+        x, y = ux * root_step * over, uy * root_step * over
+        mx, my = ux * root_step * (1 + over) / 2, uy * root_step * (1 + over) / 2
+        return [(0.0, [0, 0, 0]), (t0, [0, 0, 0]), (t0 + 0.05, [0, 0, 0.04]),
+                (t0 + 0.13, [r(x * 0.5), r(y * 0.5), 0.06]), (t0 + 0.21, [r(x), r(y), 0.03]), (t0 + 0.26, [r(x), r(y), 0]),
+                (0.72, [r(x), r(y), 0]), (0.76, [r(x), r(y), 0.03]), (0.84, [r(mx), r(my), 0.04]),
+                (0.91, [end[0], end[1], 0.02]), (0.96, end), (T, end)]
+    root_pos = [(0.0, [0, 0, 0]), (0.25, [r(ux * root_step * 0.6), r(uy * root_step * 0.6), -0.04]),
+                (0.55, [r(ux * root_step * 0.95), r(uy * root_step * 0.95), -0.03]), (0.9, [end[0], end[1], -0.01]),
+                (T, end)]
     chans = [
-        channel("root", ROOT, priority=1,
-                pos=[(0.0, [0, 0, 0]), (0.25, [r(ux * root_step * 0.6), r(uy * root_step * 0.6), -0.04]),
-                     (0.55, [r(ux * root_step * 0.95), r(uy * root_step * 0.95), -0.03]), (0.9, [end[0], end[1], -0.01]),
-                     (T, end)],
+        channel("root", ROOT, priority=1, pos=root_pos,
                 rot=[(0.0, lean(0)), (0.18, lean(14)), (0.5, lean(6)), (0.9, lean(1)), (T, lean(0))]),
-        # rotations are in character space (rest mode): the spine's keys carry the root's lean
-        channel("spine", SPINE, rot=[(0.0, lean(0)), (0.12, lean(20)), (0.45, lean(4)), (0.9, lean(1)), (T, lean(0))]),
+        # rest mode is character space: the spine's keys carry the root's lean
+        channel("spine", SPINE,
+                rot=[(0.0, lean(0)), (0.12, lean(20)), (0.45, lean(4)), (0.9, lean(1)), (T, lean(0))]),
         channel("lead_feet", first, pos=foot(0.05, 1.25), rot=None, posspec=SIZESPEC, flat=True),
         channel("other_feet", second, pos=foot(0.3, 0.8), rot=None, posspec=SIZESPEC, flat=True),
         channel("arms", GRASP, posspec="{mode: rest, scale: limb_length}",
@@ -135,13 +139,16 @@ def fall(d, low):
     P = L["pos"]
     chans = [
         channel("root", ROOT, priority=1, posspec="{mode: rest, ground: true, scale: creature_size}",
-                # falls like a toppling stick: slow, then fast (ease-in), a small bounce on landing
-                pos=[(0.0, [0, 0, 0]), (0.35, [r(P[0] * 0.12), r(P[1] * 0.12), 0.06]), (0.65, [r(P[0] * 0.55), r(P[1] * 0.55), 0.4]),
+                # falls from the first frame (a clip that stood still first would match every
+                # tap: its opening windows look like a body held in place), faster as it
+                # goes, a small bounce on landing
+                pos=[(0.0, [0, 0, 0]), (0.15, [r(P[0] * 0.1), r(P[1] * 0.1), 0.05]), (0.4, [r(P[0] * 0.35), r(P[1] * 0.35), 0.2]),
+                     (0.65, [r(P[0] * 0.7), r(P[1] * 0.7), 0.55]),
                      (FALL_T, P), (FALL_T + 0.12, [P[0], P[1], r(P[2] - 0.06)]), (FALL_T + 0.3, P)],
-                rot=[(0.0, ang(0)), (0.35, ang(0.15)), (0.65, ang(0.6)), (FALL_T, ang(1.0)),
+                rot=[(0.0, ang(0)), (0.15, ang(0.1)), (0.4, ang(0.35)), (0.65, ang(0.72)), (FALL_T, ang(1.0)),
                      (FALL_T + 0.12, ang(0.96)), (FALL_T + 0.3, ang(1.0))]),
         channel("feet", FEET, posspec=FOOTSPEC,
-                pos=[(0.0, [0, 0, 0]), (0.3, [0, 0, 0]), (0.6, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
+                pos=[(0.0, [0, 0, 0]), (0.2, [0, 0, 0]), (0.5, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
                      (FALL_T, L["feet"]), (FALL_T + 0.3, L["feet"])]),
     ]
     sfx = "_low" if low else ""
