@@ -17,6 +17,8 @@ Phases (``ImpactResponse.phase``):
                     ease-in/out slerp of theta_d) and the servos track it.
     ``blend``       at the match time: animation again, plus the physics-minus-animation
                     offset of every body decaying as a critically damped spring.
+    ``settle``      after the blend, while a stagger plays to its end: then the placement
+                    moves by the stagger's displacement and the clip played before resumes.
     ``idle``        nothing running (``reacting`` is False).
 
 Choices where the paper is silent (see ``../shared/research/impact.md`` 1.9):
@@ -60,7 +62,7 @@ from engine.physics.world import PhysicsState, rotvec_between
 from engine.response.library import MotionLibrary, library_for
 from engine.response.search import SearchResult, search, window_features
 
-PHASES = ("idle", "burst", "transition", "blend")
+PHASES = ("idle", "burst", "transition", "blend", "settle")
 
 
 class ImpactError(MenagerieError):
@@ -82,6 +84,16 @@ class ImpactParams:
     sim2_mu: float = 0.5             # foot friction, Simulation 2 (paper section 5)
     sim1_mu: float = 1.0             # foot friction, Simulation 1
     max_speed: float = 60.0          # an impulse giving the whole creature more than this (m/s) is absurd
+    # s of the player's crossfade into the found clip at the hand-off. Measured with the IK's
+    # proportional weights (27 chain-sized hits on humanoid, dog, random 4; /tmp script in the
+    # issue-13 note): the hand-back turn is the same with or without a fade (median 0.08 rad,
+    # max 0.29 at 0 and 0.2 s, 0.42 at 0.1 s) but the animation afterwards turns more (median
+    # 0.14 -> 0.24 rad, max 0.51 -> 1.21): the fade mixes the interrupted clip into the pose the
+    # offset was taken against. So none: the offset decay is the fade.
+    handoff_fade: float = 0.0
+    contact_dv: float = 4.0          # m/s: an instantaneous hit is spread so the struck body alone gains this per frame
+    contact_max: float = 0.1         # s: ... over at most this long (a shove, not a punch, beyond it)
+    resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
 
 
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -110,6 +122,29 @@ def _models(creature, p: ImpactParams):
     return hit
 
 
+def chain_bodies(creature, body: int) -> np.ndarray:
+    """The bodies a hit on ``body`` moves first: the whole limb that carries it (the sub-tree
+    of its limb's first body: a hand's arm, a foot's leg, a tail segment's tail), or every
+    body for a hit on the spine (the trunk carries the whole creature)."""
+    limb = int(creature.body_limb[body])
+    if limb < 0:
+        return np.arange(creature.nbody)
+    r = int(creature.limb_root[limb])
+    return np.arange(r, int(creature.body_subtree_end[r]))
+
+
+def chain_mass(creature, body: int, params: ImpactParams | None = None) -> float:
+    """Mass (kg) of ``chain_bodies(creature, body)`` in the response's physics model.
+
+    The rule for sizing a hit: an impulse J on a body sets its chain moving at about
+    |J| / chain_mass before the joints share it with the rest. A hit sized by the whole
+    creature's mass lands on a 0.3 kg foot as tens of m/s and spins it about the ankle
+    (the rigid-body answer, not a reaction); sized by the chain, a tap on a hand moves the
+    arm and a knock-down needs a hit on the trunk."""
+    m = _models(creature, params or ImpactParams())[1].body_mass
+    return float(m[chain_bodies(creature, body)].sum())
+
+
 def _copy_state(dst: PhysicsState, src: PhysicsState) -> None:
     for a, b in zip(dst.arrays, src.arrays, strict=True):
         np.copyto(a, b)
@@ -130,6 +165,7 @@ class ImpactResponse:
         self.clip = None              #: the Animation the response re-enters (None before the search)
         self.clip_time = 0.0          #: the matched time in it, s
         self.match = None             #: the SearchResult
+        self.entry = None             #: the library entry (clip, variant, speed; or a gait cycle)
         self.hits = 0
         self.time = 0.0               # s since the last hit
         self.since_start = 0.0        # s since the response began
@@ -143,6 +179,8 @@ class ImpactResponse:
         self._hold_rot = np.zeros((self.model1.njoint, 4))
         self._found_rot = np.zeros((self.model1.njoint, 4))
         self._armed = False
+        self._settle_at = None
+        self._settle_d = np.zeros(3)
         self._plan_time = 0.0
         self._resume = None           # the looping clip playing before the response
         self._prev_anim_pos = np.zeros((n, 3))
@@ -194,7 +232,8 @@ class ImpactResponse:
             raise ImpactError(f"hit on '{name}': duration must be 0..5 s, got {duration!r}")
         # -- validated; from here the hit is applied ---------------------------------------
         ch = self.char
-        if self.phase in ("idle", "blend"):
+        p = self.params
+        if self.phase in ("idle", "blend", "settle"):
             # the displayed pose and its finite-difference velocity become the physics state
             dt = ch._stack.last_dt
             s = state_from_kinematic(self.model2, ch.world_positions, ch.world_rotations, ch._prev_world_pos,
@@ -208,6 +247,7 @@ class ImpactResponse:
                 self.sim1_trace = []
             self._fade_handle = None
         self.phase = "burst"
+        self._settle_at = None
         self.hits += 1
         self.time = 0.0
         self.clip = None
@@ -216,9 +256,15 @@ class ImpactResponse:
         self._blend_t = 0.0
         # An instantaneous hit is delivered as a force over one frame, so the joint solver
         # shares it through the body (a velocity kick on a 0.4 kg hand spun it 2 rad/frame).
-        span = float(duration) if duration > 0.0 else ch._stack.last_dt
+        # A contact lasts at least long enough that the struck body alone would gain no more
+        # than ``contact_dv`` per frame (up to ``contact_max``): a hit sized for the trunk on a
+        # 1.5 kg neck over one frame turned it 1 rad in that frame (humanoid, 44 N s).
+        dt = ch._stack.last_dt
+        m_b = float(self.model2.body_mass[b])
+        soft = np.linalg.norm(J) * dt / (max(m_b, 1e-9) * p.contact_dv)
+        span = float(duration) if duration > 0.0 else min(max(dt, soft), max(p.contact_max, dt))
         self._contact.append([b, J / span, point, span])
-        self._contact_end = duration
+        self._contact_end = span
         # the servos hold the interrupted clip's pose as it was at the impact (Simulation 1)
         servo_targets_from_pose(self.model2, ch.world_rotations, self._hold_rot)
         np.copyto(self.sim2.joint_target_rot, self._hold_rot)
@@ -259,14 +305,18 @@ class ImpactResponse:
                 np.copyto(self._prev_anim_rot, anim_rot)
                 np.copyto(anim_pos, self.sim2.body_pos)
                 np.copyto(anim_rot, self.sim2.body_rot)
-        elif self.phase == "blend":
+        elif self.phase in ("blend", "settle"):
+            if self._settle_at is not None and self.time + dt >= self._settle_at:
+                self._settle()
             self._blend_t += dt
             t = self._blend_t
             w = p.blend_omega
             e = math.exp(-w * t)
             kx = (1.0 + w * t) * e
             kv = t * e
-            if t >= p.blend_time:
+            if t >= p.blend_time and self._settle_at is not None:
+                self.phase = "settle"                # the offset is gone; a stagger still to end
+            elif t >= p.blend_time:
                 self.phase = "idle"
                 from engine.runtime import _REACTING
 
@@ -329,9 +379,12 @@ class ImpactResponse:
         k1 = max(k0, min(k1, self._sim1_count - self.library.window))
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
-        res: SearchResult = search(self.library, feats, k0, k1)
+        g = self.char.gait
+        moving = g is not None and (bool(np.any(np.abs(g._cmd_v) > 1e-6)) or abs(g._cmd_w) > 1e-6)
+        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=moving)
         self.match = res
-        self.clip = self.library.clips[res.clip]
+        self.entry = self.library.entries[res.clip]
+        self.clip = self.entry.animation
         self.clip_time = res.clip_time
         self._handoff = res.sim_frame * self._frame_dt
         self._plan_time = self.time
@@ -357,17 +410,57 @@ class ImpactResponse:
         _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
 
     def _arm(self, dt: float) -> None:
-        """One tick before the hand-off: the found clip starts (no fade: the pose is the
-        library's, the one the search matched), placed so its root at the matched time sits
+        """One tick before the hand-off: the found clip starts (no fade, ``handoff_fade``: the
+        pose is the library's, the one the search matched), placed so its root at the matched time sits
         on Simulation 1's root at the match (yaw and ground-plane translation)."""
         ch = self.char
         res = self.match
         ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
-        start = min(max(self.clip_time - dt, 0.0), self.clip.length)
-        ch.play(self.clip, fade=0.0, start_time=start)
-        if not self.clip.loop and self._resume is not None and self._resume is not self.clip:
-            ch.queue(self._resume, fade=0.3)       # after a one-shot reaction: what played before
+        e = self.entry
+        if e.animation is None:          # a gait entry: the character's own locomotion goes on
+            self._armed = True
+            return
+        for q in list(ch.player.queues[0]):     # what an earlier response queued (a fall's lying, ...)
+            ch.player.stop(q.handle)
+        start = min(max(self.clip_time - dt * e.speed, 0.0), self.clip.length)
+        # fade_out: a clip played with fade 0 ends with a fade-out of 0 by default, and the clip
+        # queued behind it then fades in from nothing: a frame of near-zero clip weight, the
+        # rest pose's goals, a knee flipped 2 rad (measured on the dog after fall_back_low)
+        ch.play(self.clip, variant=e.variant, fade=self.params.handoff_fade, start_time=start, speed=e.speed,
+                fade_out=self.params.resume_fade)
+        name = self.clip.name
+        if name.startswith("fall_"):
+            # a fall goes on into lying and getting up (animations/reactions), then what played before
+            for nxt in ("lie_", "get_up_"):
+                a = self.library.by_name.get(nxt + name[5:])
+                if a is not None:
+                    ch.queue(a, fade=0.2, fade_out=0.2, loop=False)
+        self._settle_at = None
+        if name.startswith("stagger_"):
+            # A stagger ends in the rest pose moved by d (animations/reactions): when it ends the
+            # placement moves by d and what played before goes on from there, with no slide back
+            # (clips carry no root motion). d from the library's frames of this entry.
+            lib = self.library
+            i0 = int(np.searchsorted(lib.clip_of, res.clip))
+            i1 = int(np.searchsorted(lib.clip_of, res.clip, side="right")) - 1
+            dc = lib.pos[i1, 0, :2] - lib.pos[i0, 0, :2]
+            c, sn = math.cos(res.place_yaw), math.sin(res.place_yaw)
+            self._settle_d = np.array([c * dc[0] - sn * dc[1], sn * dc[0] + c * dc[1], 0.0])
+            self._settle_at = self._handoff + (self.clip.length - self.clip_time) / e.speed - 1.5 * dt
+        elif not self.clip.loop and self._resume is not None and self._resume is not self.clip:
+            ch.queue(self._resume, fade=self.params.resume_fade)       # after a one-shot reaction: what played before
         self._armed = True
+
+    def _settle(self) -> None:
+        """The stagger's end: the placement moves by its displacement, what played before
+        resumes (same pose: the stagger ends in the rest pose moved by it)."""
+        ch = self.char
+        ch.set_placement(position=ch.position + self._settle_d, teleport=True)
+        if self._resume is not None:
+            ch.play(self._resume, fade=0.0)
+        else:
+            ch.stop(fade=0.0)
+        self._settle_at = None
 
     def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
         """Hand-off: the offset between physics and animation, and its velocity."""
@@ -422,4 +515,4 @@ def _rotate_by_rotvec(rv: np.ndarray, q: np.ndarray) -> None:
     q /= np.linalg.norm(q, axis=1)[:, None]
 
 
-__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES"]
+__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES", "chain_bodies", "chain_mass"]

@@ -22,6 +22,17 @@ with, all from the creature's morphology, never tuned per creature:
 Unique-frame culling keeps the library starts that differ from the last kept one by
 ``library.UNIQUE_TOL``; the best culled window is then refined over every start within
 ``REFINE`` frames of it and every simulation start within ``REFINE`` frames.
+
+Coarse to fine (a game frame holds a 20,000-frame library): every culled window has a
+short feature vector (``build_prefilter``): the positions of the heaviest bodies (by
+``wp_b``, up to ``PREFILTER_BODIES``, together most of the weight) and the x and z axes
+of the heaviest two, at the window's first and last frames, each scaled by the square root of its
+weight, so the squared Euclidean distance between two vectors is a weighted sum of
+squares of the same terms D adds up. One matrix product scores every culled window
+against every simulation start; only the ``PREFILTER_K`` best per start get the exact
+distance D (the support foot included), and the refinement runs around the best of those.
+``search(..., exhaustive=True)`` scores D on every culled window (tests; the benchmark's
+recall figure compares the two).
 """
 
 from __future__ import annotations
@@ -30,8 +41,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from engine.response import _kernels as K
+
 REFINE = 3
-SIM_STRIDE = 3          # coarse simulation starts every 0.1 s at 30 Hz
+SIM_STRIDE = 6          # coarse simulation starts every 0.2 s at 30 Hz (the refinement covers +-0.1 s)
+PREFILTER_BODIES = 8    # positions of at most this many heaviest bodies in the prefilter
+PREFILTER_AXES = 2      # axes of this many
+PREFILTER_K = 32        # windows per simulation start that get the exact distance
 
 
 class SearchResult(NamedTuple):
@@ -143,46 +159,130 @@ def window_weights(W: int) -> np.ndarray:
     return 1.0 - 0.75 * i * i
 
 
-def _distances(lib, f, k, wpos, wrot, h, wi):
-    """Distance of sim window k to library windows (S, W, n, 3/4)."""
-    sp, sq = _sim_window(lib, f, k)
-    wb = lib.weights.copy()
-    if f.support_body[k] >= 0:
-        wb[f.support_body[k]] += 1.0
-    d = wpos - sp[None]
-    dp = np.sqrt(np.einsum("swbk,swbk->swb", d, d)) * (1.0 / h)
-    dot = np.abs(np.einsum("swbk,wbk->swb", wrot, sq))
-    np.minimum(dot, 1.0, out=dot)
-    dp += np.arccos(dot)             # 0.5 x the angle 2 acos|q1.q2|
-    return (dp @ wb) @ wi
+class Prefilter(NamedTuple):
+    bodies: np.ndarray      # (m,) bodies whose positions are features
+    axes: np.ndarray        # (a,) bodies whose x and z axes are features
+    frames: np.ndarray      # window frames sampled
+    scale_pos: np.ndarray   # (frames, m) sqrt(w_i wp_b) / h
+    scale_ax: np.ndarray    # (frames, a) sqrt(w_i 0.5 wp_b) / 2 (chord of an axis ~ the angle; D has 0.5 angle)
+    feats: np.ndarray       # (S, D) float32, the culled windows
+    sq: np.ndarray          # (S,) |feats|^2
+    feet: np.ndarray        # (nfeet,) foot bodies
+    foot_feats: np.ndarray  # (nfeet, S, frames * 3) float32, sqrt(w_i) p / h (the support term's weight 1)
+    foot_sq: np.ndarray     # (nfeet, S)
 
 
-def search(lib, f: SimFeatures, k0: int, k1: int) -> SearchResult:
+def _axes_of(rot):
+    """x and z axes (..., 6) of unit quaternions (..., 4)."""
+    w, x, y, z = rot[..., 0], rot[..., 1], rot[..., 2], rot[..., 3]
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
+                     2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=-1)
+
+
+def _feature_rows(pf: Prefilter, wpos, wrot):
+    """(N, D) prefilter features of aligned windows (N, W, n, 3/4)."""
+    fr = pf.frames
+    p = wpos[:, fr][:, :, pf.bodies] * pf.scale_pos[None, :, :, None]
+    a = _axes_of(wrot[:, fr][:, :, pf.axes]) * pf.scale_ax[None, :, :, None]
+    return np.concatenate([p.reshape(len(wpos), -1), a.reshape(len(wpos), -1)], axis=1).astype(np.float32)
+
+
+def _foot_rows(pf: Prefilter, wpos, foot: int, h: float):
+    fr = pf.frames
+    wi = np.sqrt(window_weights(wpos.shape[1])[fr])
+    return (wpos[:, fr, foot] * (wi[None, :, None] / h)).reshape(len(wpos), -1).astype(np.float32)
+
+
+def build_prefilter(lib) -> Prefilter:
+    c = lib.creature
+    h = max(c.height, 1e-6)
+    w = lib.weights
+    order = np.argsort(-w, kind="stable")
+    m = int(min(PREFILTER_BODIES, len(order)))
+    bodies = np.sort(order[:m])
+    axes = np.sort(order[: min(PREFILTER_AXES, len(order))])
+    W = lib.window
+    frames = np.unique(np.array([0, W - 1]))
+    wi = window_weights(W)[frames]
+    scale_pos = np.sqrt(wi[:, None] * w[bodies][None, :]) / h
+    scale_ax = np.sqrt(wi[:, None] * 0.5 * w[axes][None, :]) * 0.5
+    pf = Prefilter(bodies, axes, frames, scale_pos, scale_ax, np.zeros((0, 0), np.float32), np.zeros(0, np.float32),
+                   np.asarray(c.leg_foot, np.int64), np.zeros((0, 0, 0), np.float32), np.zeros((0, 0), np.float32))
+    feats = _feature_rows(pf, lib.win_pos, lib.win_rot)
+    foot_feats = np.stack([_foot_rows(pf, lib.win_pos, int(b), h) for b in pf.feet]) if pf.feet.size else \
+        np.zeros((0, len(feats), len(frames) * 3), np.float32)
+    return pf._replace(feats=feats, sq=np.einsum("sd,sd->s", feats, feats), foot_feats=foot_feats,
+                       foot_sq=np.einsum("fsd,fsd->fs", foot_feats, foot_feats))
+
+
+def _sim_windows(lib, f: SimFeatures, ks):
+    W = lib.window
+    idx = np.asarray(ks)[:, None] + np.arange(W)[None, :]
+    yaw = np.repeat(f.yaw[np.asarray(ks)][:, None], W, 1)
+    xy = np.repeat(f.xy[np.asarray(ks)][:, None, :], W, 1)
+    return _unyaw(yaw, xy, f.pos[idx], f.rot[idx])
+
+
+def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, exhaustive: bool = False) -> SearchResult:
     """The best (sim start in k0..k1, library start) pair; see the module docstring."""
     h = max(lib.creature.height, 1e-6)
     wi = window_weights(lib.window)
-    best = (np.inf, -1, -1)
     ks = list(range(k0, k1 + 1, SIM_STRIDE)) or [k0]
     if ks[-1] != k1:
         ks.append(k1)
-    ncand = 0
-    for k in ks:
-        d = _distances(lib, f, k, lib.win_pos, lib.win_rot, h, wi)
-        ncand += d.shape[0]
-        j = int(np.argmin(d))
-        if d[j] < best[0]:
-            best = (float(d[j]), k, int(lib.starts[j]))
-    # local refinement: every start around the best, every sim start around it
+    allowed = None
+    is_gait = getattr(lib, "is_gait", None)
+    if not allow_gait and is_gait is not None and is_gait.any():
+        allowed = ~is_gait[lib.clip_of[lib.starts]]
+    sps, sqs = _sim_windows(lib, f, ks)
+    pf = getattr(lib, "prefilter", None)
+    S = len(lib.starts)
+    nsim = len(ks)
+    wb = np.repeat(lib.weights[None, :], nsim, 0)
+    sup = f.support_body[np.asarray(ks)]
+    has = sup >= 0
+    wb[np.flatnonzero(has), sup[has]] += 1.0
+    if not exhaustive and pf is not None and S > PREFILTER_K:
+        q = _feature_rows(pf, sps, sqs)                                   # (nsim, D) float32
+        E = pf.foot_feats.shape[2] if pf.foot_feats.ndim == 3 else len(pf.frames) * 3
+        g = np.zeros((nsim, E), np.float32)
+        foot_of = np.full(nsim, -1, np.int64)
+        for j in np.flatnonzero(has):
+            hit = np.flatnonzero(pf.feet == sup[j])
+            if hit.size:
+                foot_of[j] = int(hit[0])
+                g[j] = _foot_rows(pf, sps[j:j + 1], int(sup[j]), h)[0]
+        ok = allowed if allowed is not None else np.ones(S, bool)
+        c = np.empty((nsim, PREFILTER_K), np.int64)
+        scores = np.empty((nsim, PREFILTER_K))
+        K.prefilter_topk(pf.feats, pf.sq, q, pf.foot_feats, pf.foot_sq, g, foot_of, ok, c, scores)
+    else:
+        c = np.repeat(np.arange(S, dtype=np.int64)[None, :], nsim, 0)
+        if allowed is not None:
+            c[:, ~allowed] = -1
+    D = np.empty(c.shape)
+    K.window_distances(lib.win_pos, lib.win_rot, c, sps, sqs, wb, wi, 1.0 / h, D)
+    ncand = int(D.size)
+    jj, ii = np.unravel_index(int(np.argmin(D)), D.shape)
+    best = (float(D[jj, ii]), ks[jj], int(lib.starts[c[jj, ii]]))
+    # local refinement: every start around the best, every sim start around it (one kernel call)
     _, kb, sb = best
     cand = np.arange(max(0, sb - REFINE), min(lib.frames, sb + REFINE + 1))
     cand = cand[lib.valid[cand] & (lib.clip_of[cand] == lib.clip_of[sb])]
     wpos, wrot = library_windows(lib, cand)
-    for k in range(max(k0, kb - REFINE), min(k1, kb + REFINE) + 1):
-        d = _distances(lib, f, k, wpos, wrot, h, wi)
-        ncand += d.shape[0]
-        j = int(np.argmin(d))
-        if d[j] < best[0]:
-            best = (float(d[j]), k, int(cand[j]))
+    rks = list(range(max(k0, kb - REFINE), min(k1, kb + REFINE) + 1))
+    rp, rq = _sim_windows(lib, f, rks)
+    rwb = np.repeat(lib.weights[None, :], len(rks), 0)
+    rsup = f.support_body[np.asarray(rks)]
+    rhas = rsup >= 0
+    rwb[np.flatnonzero(rhas), rsup[rhas]] += 1.0
+    rc = np.repeat(np.arange(len(cand), dtype=np.int64)[None, :], len(rks), 0)
+    RD = np.empty(rc.shape)
+    K.window_distances(np.ascontiguousarray(wpos), np.ascontiguousarray(wrot), rc, rp, rq, rwb, wi, 1.0 / h, RD)
+    ncand += int(RD.size)
+    jj, ii = np.unravel_index(int(np.argmin(RD)), RD.shape)
+    if RD[jj, ii] < best[0]:
+        best = (float(RD[jj, ii]), rks[jj], int(cand[ii]))
     dist, k, s = best
     yaw = float(f.yaw[k] - lib.yaw[s])
     c, sn = np.cos(yaw), np.sin(yaw)
