@@ -252,3 +252,29 @@ channels:
         - {t: 0.0, v: [0, 0, 0.3]}
         - {t: 1.0, v: [0, 0, 0.3]}
 """
+
+
+def test_goals_above_ground_by_hand():
+    """``goals_above_ground`` on numbers worked out by hand: a 0.2 m cube's goal at
+    z = -0.5 rises to 0.1 (its lowest face on the ground); turned 45 degrees about x its
+    lowest edge is 0.1 * sqrt(2) below its centre; a body whose box dips 0.03 m into the
+    ground at rest may go that deep; a goal of weight 0, the root, and a row whose gait set
+    the terrain are left alone."""
+    from engine import _runtime_kernels as RK
+
+    nb = 5
+    extent = np.full((nb, 3), 0.1)
+    rest_rot = np.tile([1.0, 0.0, 0.0, 0.0], (nb, 1))
+    floor = np.array([0.0, 0.0, 0.0, -0.03, 0.0])
+    s45 = np.sin(np.pi / 8)
+    pos = np.zeros((2, nb, 3))
+    pos[:, :, 2] = -0.5
+    rot = np.tile([1.0, 0.0, 0.0, 0.0], (2, nb, 1))
+    rot[:, 2] = [np.cos(np.pi / 8), s45, 0.0, 0.0]
+    pw = np.ones((2, nb))
+    pw[:, 4] = 0.0
+    rw = np.ones((2, nb))
+    ground_set = np.array([False, True])
+    RK.goals_above_ground(np.arange(2, dtype=np.int64), ground_set, pos, rot, pw, rw, rest_rot, extent, floor)
+    np.testing.assert_allclose(pos[0, :, 2], [-0.5, 0.1, 0.1 * np.sqrt(2.0), 0.07, -0.5], atol=1e-12)
+    assert np.all(pos[1, :, 2] == -0.5)
