@@ -474,19 +474,21 @@ def _on_fork(c, body) -> bool:
     return False
 
 
-@pytest.mark.xfail(strict=True, reason="known: a position-only goal on one foot of a branching leg (random creatures "
-                   "78: leg2_l_a_foot, 2759: leg1_l_a_foot) spins the foot (~5 rad over 3% of reach near 0.58 reach "
-                   "for 78): without a rotation goal or a brace the foot's direction is its free joint particle's, "
+# (random creature 2759's leg1_l_a_foot turns at most 0.236 rad in a step and 881's spine
+# 0.209: under the bound, the grid's rotation_pop warning, so they left these lists)
+@pytest.mark.xfail(strict=True, reason="known: a position-only goal on one foot of a branching leg (random creature "
+                   "78: leg2_l_a_foot) spins the foot (~5 rad over 3% of reach near 0.58 reach, 0.745 rad in one "
+                   "step): without a rotation goal or a brace the foot's direction is its free joint particle's, "
                    "which swings through")
-@pytest.mark.parametrize("seed", [78, 2759])
+@pytest.mark.parametrize("seed", [78])
 def test_sweep_branching_leg_foot_known_spin(seed):
     _known_sweep_case(seed, on_fork=True)
 
 
 @pytest.mark.xfail(strict=True, reason="known: a serial leg's lone goal swept past full reach (1.04-1.17 reach; random "
-                   "creatures 7759 and 881) turns a spine body 0.2-0.9 rad in one step: the chords drag the spine "
-                   "and the anti-buckling blend engages abruptly")
-@pytest.mark.parametrize("seed", [7759, 881])
+                   "creature 7759) turns a spine body 0.876 rad in one step: the chords drag the spine and the "
+                   "anti-buckling blend engages abruptly")
+@pytest.mark.parametrize("seed", [7759])
 def test_sweep_past_reach_known_spine_jump(seed):
     _known_sweep_case(seed, on_fork=False)
 
