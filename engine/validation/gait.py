@@ -43,8 +43,8 @@ from engine.model.creature import Creature
 #: walker has by its geometry; 120 is a one-frame departure of 1/30 of a leg (1.5% of a
 #: biped's size), under the grid's position_pop warning (2% of the size in a frame,
 #: engine/validation/thresholds.py): a hop nobody sees. Beyond it the hips jump visibly (the
-#: test biped's 306 at the sidestep turn is 8.5% of its leg in one frame). Legs with knees
-#: bend through the kink: 25 (0.7% of a leg in a frame).
+#: test biped's 306 at the sidestep turn, before the hip hike eased out, was 8.5% of its leg
+#: in one frame; 64 now). Legs with knees bend through the kink: 25 (0.7% of a leg a frame).
 FOOT_SPEED_BOUND = 12.0
 ROOT_ACCEL_BOUND = 25.0
 ROOT_ACCEL_BOUND_COMPASS = 120.0
