@@ -308,6 +308,42 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
 
 
 @njit(cache=True)
+def goals_above_ground(rows, ground_set, goal_pos, goal_rot, goal_pw, goal_rw, rest_rot, body_extent, body_floor):
+    """Goals kept out of the ground a standing character stands on (character space z = 0;
+    rows whose gait set a terrain, ``ground_set``, are the gait's to place): a position goal
+    whose box, turned by its rotation goal (the rest rotation without one), would have its
+    lowest corner below ``body_floor[b]`` (the lower of 0 and that corner at rest, so the
+    rest pose is untouched) is raised until the corner is there. A clip authored on a
+    creature whose hands hang at the hips moves them down in the same way on a knuckle
+    walker whose hands rest on the ground: the goal would be in the ground, and the IK
+    meets goals exactly, so the hand went in with it. Lifting is continuous in the goal
+    (a max), so fades and sweeps stay smooth."""
+    nbody = goal_pos.shape[1]
+    v = np.empty(3)
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        if ground_set[r]:
+            continue
+        for b in range(1, nbody):
+            if goal_pw[r, b] <= 0.0:
+                continue
+            q = goal_rot[r, b] if goal_rw[r, b] > 0.0 else rest_rot[b]
+            lo = 1e300
+            for sx in (-1.0, 1.0):
+                for sy in (-1.0, 1.0):
+                    for sz in (-1.0, 1.0):
+                        v[0] = sx * body_extent[b, 0]
+                        v[1] = sy * body_extent[b, 1]
+                        v[2] = sz * body_extent[b, 2]
+                        x, y, z = quat_rotate_t(q, v)
+                        if z < lo:
+                            lo = z
+            below = body_floor[b] - (goal_pos[r, b, 2] + lo)
+            if below > 0.0:
+                goal_pos[r, b, 2] += below
+
+
+@njit(cache=True)
 def skinning_into(world_pos, world_rot, inv_bind, out):
     """Skinning matrices (nbody, 4, 4): world transform times the inverse rest (bind)
     transform, so a vertex at rest maps to where its body is now."""

@@ -151,6 +151,7 @@ class _Stack:
         #: Rows whose feet stand (no locomotion controller): the gait stage holds their feet.
         self.stand = np.full(n, creature.nleg > 0, np.bool_)
         self.stand_call = None
+        self.ground_call = None
         self.rows = np.arange(n, dtype=np.int64)
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
@@ -486,6 +487,30 @@ def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
                                                           s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos,
                                                           s.root_rot, rigid, hip, ankle, reach))
     call.call()
+    call = s.ground_call
+    if call is None or call.args[0] is not rows:
+        c = s.creature
+        call = s.ground_call = BoundKernel(RK.goals_above_ground, (rows, s.ground_set, s.goal_pos, s.goal_rot,
+                                                                   s.goal_pw, s.goal_rw, c.body_rest_rot,
+                                                                   c.body_extent, _body_floor(c)))
+    call.call()
+
+
+def _body_floor(c: Creature) -> np.ndarray:
+    """(nbody,) the lowest a goal may put each body's box corner, m: the ground, or lower
+    where the body's box dips into it at rest (``RK.goals_above_ground``). Made once."""
+    hit = _FLOORS.get(c)
+    if hit is None:
+        from engine.mathx import quat_rotate
+
+        signs = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+        rest_low = np.array([c.body_rest_pos[b, 2] + min(quat_rotate(c.body_rest_rot[b], s * c.body_extent[b])[2]
+                                                         for s in signs) for b in range(c.nbody)])
+        hit = _FLOORS[c] = np.minimum(rest_low, 0.0)
+    return hit
+
+
+_FLOORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _standing_legs(c: Creature) -> tuple:

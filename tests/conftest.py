@@ -24,3 +24,21 @@ settings.load_profile("ci")
 def human():
     """The library humanoid (a test module may define its own ``human``)."""
     return engine.load_creature("creatures/humanoid.yaml")
+
+
+def renderer_or_skip() -> None:
+    """Skip the calling test when this machine truly cannot render offscreen (no OpenGL
+    context: ``authoring.render.Renderer`` says so with a ViewerError naming what to
+    install, or pyglet is not installed); any other error from the renderer is a failure,
+    never a skip."""
+    try:
+        from authoring import render as rd
+    except ImportError as exc:                   # pragma: no cover - no pyglet
+        pytest.skip(f"the renderer cannot be imported: {exc}")
+    try:
+        with rd.Renderer(64, 64):
+            pass
+    except rd.ViewerError as exc:
+        if not str(exc).startswith("cannot create an OpenGL context"):
+            raise
+        pytest.skip(f"no OpenGL context on this machine: {exc}")

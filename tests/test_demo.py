@@ -3,19 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from authoring import demo
 
 
 def test_headless_demo_writes_a_contact_sheet(tmp_path, capsys):
-    from authoring import render as rd
+    from conftest import renderer_or_skip  # tests/ is on sys.path (pytest's rootdir mode)
 
-    try:
-        with rd.Renderer(64, 64):
-            pass
-    except Exception as exc:  # pragma: no cover - machines without EGL
-        pytest.skip(f"no OpenGL context on this machine: {exc}")
+    renderer_or_skip()
     zoo = demo.Zoo(demo.library_creatures(("humanoid", "spider", "octopus")), demo.library_animations())
     assert demo._headless(zoo, str(tmp_path), seconds=0.5, fps=10, sheet_frames=3) == 0
     sheet = tmp_path / "contact_sheet.png"

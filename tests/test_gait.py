@@ -25,7 +25,7 @@ from engine.ik.testing import MINI_TEXT as MINI  # the shared seven-body test bi
 from engine.mathx import quat_conj, quat_mul
 from engine.model import build_creature, creature_from_text
 from engine.model.random import random_creature_def
-from engine.validation.gait import continuity_bound, rolling_terrain, run_scenario
+from engine.validation.gait import continuity_bound, rolling_terrain, run_scenario, scenario_commands
 
 
 @pytest.fixture(scope="module")
@@ -169,28 +169,36 @@ def test_invalid_controller_inputs(mini):
 # -- walking ---------------------------------------------------------------------------------
 
 
-def _short(t, L):
-    if t < 1.5:
-        return 1.0 * L, 0.0, 0.5
-    if t < 2.0:
-        return 0.0, 0.0, 0.0          # sudden stop
-    return -0.5 * L, 0.0, -0.8        # reverse and turn
+#: The benchmark's scenario (``engine.validation.gait.scenario_commands``, what
+#: benchmarks/gait.py walks: curve, faster curve, sudden stop, reverse, sharp turn with a
+#: sidestep, walk on), every segment at this share of its length: all of it, shorter.
+SCENARIO_SHARE = 0.5
 
 
+def _scenario(t, L):
+    return scenario_commands(t / SCENARIO_SHARE, L)
+
+
+# Knee-less bipeds through the sidestep turn: the swing stilt's hip hike (the pelvis rolled
+# up to 0.35 rad so the stilt clears the ground) dropped to 0 in the frame its foot landed,
+# and the hips re-solved 0.086 leg lengths higher in that frame: 306 leg lengths/s^2 on
+# mini in the benchmark's scenario (321 here, minimal 261). The roll now eases out
+# (engine/gait/_kernels.py, COMPASS_ROLL_STEP): mini 64 (73 here), minimal 55 (60 here).
 @pytest.mark.parametrize("name", ["mini", "minimal", "dog", "hexapod", "tripod", "forkstrider", "centipede",
                                   "stilts"])
 def test_planted_feet_do_not_slide(name, mini):
     c = {"mini": mini, "stilts": creature_from_text(STILTS)}.get(name) or engine.load_creature(
         f"creatures/{name}.yaml")
     for terrain in (False, True):
-        m = run_scenario(c, seconds=3.0, terrain=terrain, commands=_short)
+        m = run_scenario(c, seconds=8.0 * SCENARIO_SHARE, terrain=terrain, commands=_scenario)
         assert m["finite"]
         assert m["stances"] >= 3
         assert m["stance_slide_mm"] <= 1.0, m
         assert m["touchdown_error_mm"] <= 10.0, m
         assert m["below_ground_mm"] <= 1.0, m
         assert m["stretch_ratio"] <= 1.02, m
-        # continuity through the sudden stop, reverse and turn (the bound the benchmark states)
+        # continuity through the sudden stop, reverse and sidestep turn: the bounds are a
+        # one-frame hop a viewer does not see (engine.validation.gait.continuity_bound)
         foot_bound, root_bound = continuity_bound(analyze(c))
         assert m["foot_speed"] <= foot_bound and m["root_accel"] <= root_bound, m
 
@@ -464,15 +472,23 @@ def test_floater_hovers_and_crawler_crawls():
     assert m["finite"] and m["stances"] >= 3
 
 
-@pytest.mark.parametrize("seed", [3, 11, 27])
+@pytest.mark.parametrize("seed", [103, 111, 127])
 def test_random_creatures_walk(seed):
+    """Random creatures nobody tuned the gait on (seeds past 0-99) walk the benchmark's
+    scenario on hills with the feet a user accepts: a planted foot skating less than 1% of
+    the leg (the grid's standing_slide failure: a centimetre on a human), never 2% of the
+    height into the ground (the grid's below_ground failure), no leg stretched past the
+    IK's own 2% limit."""
+    from engine.validation.thresholds import BY_METRIC
+
     c = build_creature(random_creature_def(seed))
-    m = run_scenario(c, seconds=2.0, terrain=True, commands=_short)
+    m = run_scenario(c, seconds=8.0 * SCENARIO_SHARE, terrain=True, commands=_scenario)
     assert m["finite"], m
     if m["mode"] == "walk":
-        # measured on the IK's output: these seeds stay within 2.1 mm (benchmarks/gait.py
-        # reports the sweep over 100 random creatures)
-        assert m["stance_slide_mm"] <= 2.5 and m["below_ground_mm"] <= 2.5 and m["stretch_ratio"] <= 1.03, m
+        leg_mm = 1000.0 * float(np.max(analyze(c).group_length))
+        assert m["stance_slide_mm"] <= BY_METRIC["standing_slide"].fail * leg_mm, m
+        assert m["below_ground_mm"] <= BY_METRIC["below_ground"].fail * 1000.0 * float(c.height), m
+        assert m["stretch_ratio"] <= 1.02 + 1e-6, m
 
 
 def test_rolling_terrain_vectorised():
@@ -517,15 +533,27 @@ def _spine_length(c) -> float:
     return float(np.sum(np.linalg.norm(np.diff(j, axis=0), axis=1)))
 
 
+def _crawler_stands(figure):
+    return pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+        f"a held-out crawler (seed outside the tuned 0-99) with several pseudo-feet barely moves: {figure} leg "
+        "lengths of the ~7 the scenario asks; the crawl wave's sweep was calibrated on random43's four feet"))
+
+
 @pytest.mark.parametrize("name, body_lengths, leg_lengths", [
     # the inch-worm covered 1.4 of its spine lengths (2.75 pseudo-foot spacings) when its
     # sweep was calibrated on the walkers' every-other-foot-opposite stances and its two
     # pseudo-feet lifted 0.55 of the cycle apart; now 2.5
     ("inchworm", 2.0, 4.0),
-    # four pseudo-feet: 0.5 spacings before (immobile), 1.44 now
-    ("random43", 0.0, 1.2),
-    # one pseudo-foot: its spine covers itself (1.44 spine lengths)
-    ("random25", 1.0, 1.0),
+    # Random crawlers from seeds nobody tuned on (the gait was tuned on 0-99: random43,
+    # random25). A user asking for a walk must see the crawler go somewhere: at least one
+    # leg length (the benchmark's "immobile" line) and one spine length for a one-foot
+    # crawler whose spine covers itself. Measured: 113 (one pseudo-foot) 1.48 spine
+    # lengths; 120, 163, 178 and 276 (two to four) 0.30, 0.72, 0.0 and 0.75 leg lengths.
+    ("random113", 1.0, 1.0),
+    pytest.param("random120", 0.0, 1.0, marks=_crawler_stands(0.30)),
+    pytest.param("random163", 0.0, 1.0, marks=_crawler_stands(0.72)),
+    pytest.param("random178", 0.0, 1.0, marks=_crawler_stands(0.0)),
+    pytest.param("random276", 0.0, 1.0, marks=_crawler_stands(0.75)),
 ])
 def test_crawlers_travel_with_planted_pseudo_feet(name, body_lengths, leg_lengths):
     """A crawler's calibrated sweep is the one its inch-worm wave really uses, so it
@@ -536,10 +564,11 @@ def test_crawlers_travel_with_planted_pseudo_feet(name, body_lengths, leg_length
     rig = analyze(c)
     assert rig.mode == "crawl"
     m = run_scenario(c, seconds=8.0, terrain=False)
-    assert m["finite"] and m["stances"] >= 10, m
+    assert m["finite"], m
+    assert m["travel"] >= leg_lengths, m
+    assert m["stances"] >= 10, m
     assert m["stance_slide_mm"] <= 1.0, m
     travel_m = m["travel"] * float(rig.group_length[0])
-    assert m["travel"] >= leg_lengths, m
     assert travel_m >= body_lengths * _spine_length(c), (travel_m, _spine_length(c))
 
 

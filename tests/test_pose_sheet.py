@@ -9,15 +9,10 @@ from authoring import pose_sheet as ps
 
 
 def test_crouch_sheet_shows_a_different_pose_than_rest(tmp_path):
+    from conftest import renderer_or_skip  # tests/ is on sys.path (pytest's rootdir mode)
     from PIL import Image
 
-    from authoring import render as rd
-
-    try:
-        with rd.Renderer(64, 64):
-            pass
-    except Exception as exc:  # pragma: no cover - machines without EGL
-        pytest.skip(f"no OpenGL context on this machine: {exc}")
+    renderer_or_skip()
     rest = ps.pose_sheet("animations/crouch.yaml", 0.0, str(tmp_path / "rest.png"), ["humanoid", "dog"],
                          width=320, height=160)
     low = ps.pose_sheet("animations/crouch.yaml", 1.0, str(tmp_path / "low.png"), ["humanoid", "dog"],

@@ -1,10 +1,27 @@
-"""Every library animation, in every variant, on every library creature and on 100 random
-creatures, for its whole length: finite output, no exception (or a clear refusal from the
-bind phase when a branch predicate excludes the creature)."""
+"""Every library animation, in every variant, on every library creature and on 20 random
+creatures outside the gait's tuned seeds, for its whole length, judged by what a player
+sees: played at 60 Hz through ``engine.Crowd`` exactly as the validation grid plays a cell
+(``engine.validation.record.record_cells``, the grid's default targets) and measured by the
+grid's own metrics against its own thresholds (``engine/validation/thresholds.py``):
+
+    below_ground    no box corner deeper in the ground than 2% of the creature's height
+    rotation_pop    no body turning half a radian in one frame that no goal asked for
+    reach_miss      reachable full-weight goals met to 3% of the limb's reach
+    beyond_reach    unreachable goals met as well as a limb pointing at them can
+
+A creature the animation's branch excludes must be refused at ``play`` with its name.
+
+Cells that fail today for a reason this change does not reach are listed in ``KNOWN`` with
+the figure measured and the reason; they are strict xfails: a known cell that passes fails
+the run (take it off the list), and a known cell failing a metric it is not listed for
+fails too.
+"""
 
 from __future__ import annotations
 
+import functools
 import glob
+import os
 
 import numpy as np
 import pytest
@@ -14,43 +31,159 @@ from engine.anim import load_animation
 from engine.anim.binding import branch_failures
 from engine.model import build_creature
 from engine.model.random import random_creature_def
+from engine.validation.cell import CellContext, cell_target_sets
+from engine.validation.continuity import continuity
+from engine.validation.goals import goal_error
+from engine.validation.ground import ground
+from engine.validation.record import PlaySpec, record_cells
+from engine.validation.thresholds import FAIL, verdict
 
-DT = 0.1   # coarse frames keep this sweep fast; the runtime must be stable at any dt
+ANIMATIONS = sorted(glob.glob("animations/*.yaml"))
+LIBRARY = sorted(glob.glob("creatures/*.yaml"))
+#: Random creatures for the sweep: seeds nobody tuned on (the gait and the IK were tuned on 0-99).
+RANDOM_SEEDS = range(100, 120)
+CHECKED = ("below_ground", "rotation_pop", "reach_miss", "beyond_reach")
+#: Seconds recorded after a clip ends: its fade-out (0.2 s) and a little of the pose after.
+SETTLE = 0.5
+
+# Why the known cells fail (the engine's parts this change leaves to their owners).
+IK_ARC = ("the limb phase aims along the shortest arc when a goal is opposite the limb's rest direction, "
+          "and the limb turns over (issue 16; engine/ik/_kernels.py)")
+IK_GROUND = ("the IK has no ground: a body between goals (an arm's middle, a spine segment) is placed below "
+             "z = 0 while every goal is above it (needs a ground constraint in the IK's phases, engine/ik/_kernels.py)")
+PASSIVE_GROUND = ("a passive body (Jiggles) hanging from a body that is itself at the ground: the jiggle ground "
+                  "contact turns it about its joint, and the joint is already low")
+KNEELESS = ("a knee-less leg on a spine segment the clip moves: the standing stage holds the root where the "
+            "stilts can be, not the segment the leg hangs from, so the IK misses the foot and it dips")
+SPIDER_PALP = "the palps' goals are beyond what the palp's limb can reach in the pose the spine takes"
+REACH = "a reachable full-weight goal missed by more than 3% of the reach (conflicting goals on the limb)"
+
+#: (creature, animation) -> (reason, {metric: worst value measured, over the variants}).
+KNOWN: dict[tuple[str, str], tuple[list[str], dict[str, float]]] = {}
 
 
-@pytest.fixture(scope="module")
-def animations():
-    return [load_animation(p) for p in sorted(glob.glob("animations/*.yaml"))]
+def _known(reason: str, metric: str, cells: str) -> None:
+    """``cells``: "creature animation value; ..." rows of one reason and metric."""
+    for row in cells.split(";"):
+        creature, animation, value = row.split()
+        reasons, figures = KNOWN.setdefault((creature, animation), ([], {}))
+        figures[metric] = float(value)
+        if reason not in reasons:
+            reasons.append(reason)
 
 
-def _play_everything(creature, animations) -> int:
-    played = 0
-    for anim in animations:
-        if branch_failures(anim, creature):
-            with pytest.raises(engine.MenagerieError, match=creature.name):
-                engine.Character(creature).play(anim)
+class KnownDefect(AssertionError):
+    """A known cell failing exactly the metrics it is listed for."""
+
+
+@functools.cache
+def _animations() -> tuple:
+    return tuple(load_animation(p) for p in ANIMATIONS)
+
+
+@functools.cache
+def _creature(key: str):
+    return build_creature(random_creature_def(int(key[7:]))) if key.startswith("random_") \
+        else engine.load_creature(key)
+
+
+@functools.cache
+def _judged(key: str) -> dict:
+    """animation name -> [(variant id, {metric: Measure})] for every cell of one creature,
+    recorded in crowds (the grid's batched path) and measured by the grid's metrics."""
+    c = _creature(key)
+    ctx = CellContext.for_creature(c)
+    specs = []
+    for a in _animations():
+        if branch_failures(a, c):
             continue
-        binding = engine.bind(anim, creature)
-        for v in range(binding.nvariant):
-            ch = engine.Character(creature, position=(1.0, -2.0, 0.0), heading=0.7)
-            ch.set_target("fruit", (1.5, -1.6, 0.6 * creature.height))
-            ch.play(anim, variant=v, fade=0.0, loop=False)
-            for _ in range(int(np.ceil(anim.length / DT)) + 1):
-                ch.tick(DT)
-                assert np.all(np.isfinite(ch.world_positions)), (creature.name, anim.name, v)
-                assert np.all(np.isfinite(ch.world_rotations)), (creature.name, anim.name, v)
-            played += 1
-    return played
+        b = engine.bind(a, c)
+        for v in b.variants:
+            specs.append(PlaySpec(a, v.index, cell_target_sets(a, c, b, v)[0]))
+    out: dict = {}
+    for sp, rec in zip(specs, record_cells(c, specs, settle=SETTLE), strict=True):
+        assert rec.error is None, (c.name, sp.animation.name, rec.error)
+        assert np.all(np.isfinite(rec.world_pos)) and np.all(np.isfinite(rec.world_rot)), (c.name, sp.animation.name)
+        ms = {m.name: m for m in continuity(rec, ctx) + goal_error(rec, ctx) + ground(rec, ctx) if m.name in CHECKED}
+        out.setdefault(sp.animation.name, []).append((rec.variant_id, ms))
+    return out
 
 
-@pytest.mark.parametrize("path", sorted(glob.glob("creatures/*.yaml")))
-def test_library_creature(path, animations):
-    c = engine.load_creature(path)
-    assert _play_everything(c, animations) > 0
+def _check(key: str, anim_path: str) -> None:
+    c = _creature(key)
+    anim = next(a for a in _animations() if a.path and os.path.samefile(a.path, anim_path))
+    if branch_failures(anim, c):
+        with pytest.raises(engine.MenagerieError, match=c.name):
+            engine.Character(c).play(anim)
+        return
+    failed: dict[str, str] = {}
+    for variant_id, ms in _judged(key)[anim.name]:
+        for name, m in ms.items():
+            if verdict(name, m.value) == FAIL:
+                failed.setdefault(name, f"{variant_id}: {name} {m.value:.4g} {m.unit} at {m.body}, t={m.time:.2f}s")
+    known = KNOWN.get((c.name, anim.name))
+    if known is not None and failed and set(failed) <= set(known[1]):
+        raise KnownDefect("; ".join(failed.values()))
+    assert not failed, "; ".join(failed.values())
 
 
-def test_random_creatures(animations):
-    played = 0
-    for seed in range(100):
-        played += _play_everything(build_creature(random_creature_def(seed)), animations)
-    assert played > 1000
+def _params(keys: list[str], name_of) -> list:
+    out = []
+    for key in keys:
+        for path in ANIMATIONS:
+            creature, animation = name_of(key), os.path.splitext(os.path.basename(path))[0]
+            marks = []
+            known = KNOWN.get((creature, animation))
+            if known is not None:
+                figures = ", ".join(f"{m} {v:g}" for m, v in known[1].items())
+                marks = [pytest.mark.xfail(raises=KnownDefect, strict=True, reason=f"{figures}: {'; '.join(known[0])}")]
+            out.append(pytest.param(key, path, marks=marks, id=f"{creature}-{animation}"))
+    return out
+
+
+# -- the known defects (measured on this sweep; figures are the worst variant's) ----------------
+_known(IK_ARC, "rotation_pop", "bat dance 1.114; bat perform 1.598; bat pound_ground 2.580; bat wing_flap 0.821; "
+       "centaur pound_ground 0.756; crab hand_to_mouth 0.824; elephant crouch 0.819; forkstrider eat_fruit 0.778; "
+       "forkstrider hand_to_mouth 2.263; hopper dance 0.741; hopper pick_up_rock 0.855; hopper pound_ground 0.617; "
+       "humanoid eat_fruit 0.510; humanoid hand_to_mouth 1.137; humanoid pick_fruit 0.519; humanoid pound_ground 0.527; "
+       "humanoid wave 2.887; inchworm crouch 0.668; kangaroo pound_ground 0.532; longspine eat_fruit 2.640; "
+       "longspine hand_to_mouth 2.445; longspine pound_ground 2.936; octopus eat_fruit 2.174; "
+       "octopus hand_to_mouth 1.515; octopus hold_platter 0.910; prehensile dance 0.723; prehensile perform 3.012; "
+       "prehensile pick_up_rock 2.050; spider hand_to_mouth 0.581; threearmed perform 0.575; "
+       "threearmed pound_ground 1.807; trex dance 0.852; trex pound_ground 0.647; twoheaded pick_fruit 0.683; "
+       "twoheaded wave 0.543; "
+       "random_101 pound_ground 0.762; random_109 hand_to_mouth 1.692; random_109 hold_platter 0.764; "
+       "random_109 point_at_target 0.588; random_110 pick_up_rock 0.527; random_110 pound_ground 0.646; "
+       "random_112 perform 0.528; random_114 pick_up_rock 0.682; random_116 dance 0.523; random_116 hold_platter 1.497; "
+       "random_116 hug 0.758; random_116 perform 0.627; random_116 wing_flap 0.631; random_117 pick_fruit 0.727; "
+       "random_117 point_at_target 0.695")
+_known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; inchworm crouch 0.0553; inchworm jump_in_place 0.0497; "
+       "inchworm look_around 0.0339; inchworm nod_at_target 0.0355; inchworm perform 0.049; octopus clap 0.0763; "
+       "octopus dance 0.097; octopus eat_fruit 0.2153; octopus hand_to_mouth 0.2224; octopus hold_platter 0.163; "
+       "octopus hug 0.1346; octopus perform 0.0806; octopus pick_up_rock 0.0281; octopus shrug 0.0229; "
+       "scorpion look_around 0.0375; snake dance 0.0598; snake jump_in_place 0.1201; snake look_around 1.0962; "
+       "snake perform 0.6799; snake roar 0.1531; random_104 jump_in_place 0.0232; "
+       "random_113 jump_in_place 0.0312; random_117 crouch 0.0292; random_117 jump_in_place 0.046; "
+       "random_117 look_around 0.2403; random_117 pick_up_rock 0.0706")
+_known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_head 0.0322; trex pick_up_rock 0.0438; "
+       "random_114 pick_up_rock 0.0734; random_117 clap 0.035; random_117 eat_fruit 0.0237; "
+       "random_117 nod_at_target 0.0211; random_117 pick_fruit 0.0569; random_117 point_at_target 0.0608; "
+       "random_117 shrug 0.0813; random_117 wave 0.0237")
+_known(KNEELESS, "below_ground", "centipede dance 0.0211; centipede perform 0.1357; centipede roar 0.038")
+_known(KNEELESS, "reach_miss", "centipede dance 0.0633; centipede perform 0.1794")
+_known(SPIDER_PALP, "beyond_reach", "spider dance 0.2052; spider eat_fruit 0.2052; spider perform 0.2052; "
+       "spider pick_fruit 0.2052; spider pound_ground 0.2052")
+_known(SPIDER_PALP, "reach_miss", "spider eat_fruit 0.0866; spider hand_to_mouth 0.5444; spider punch 0.265")
+_known(REACH, "reach_miss", "bat wing_flap 0.042; dragon wing_flap 0.1054; forkstrider hand_to_mouth 0.0306; "
+       "hopper hand_to_mouth 0.4318; random_110 wing_flap 0.0466; hopper punch 0.074; hopper stretch 0.1295; hopper wave 0.1474; "
+       "longspine hand_to_mouth 0.0337; scorpion hand_to_mouth 0.05; trex stretch 0.0432")
+
+
+@pytest.mark.parametrize(("key", "anim_path"), _params(LIBRARY, lambda p: os.path.splitext(os.path.basename(p))[0]))
+def test_library_cell(key, anim_path):
+    _check(key, anim_path)
+
+
+@pytest.mark.parametrize(("key", "anim_path"), _params([f"random_{s}" for s in RANDOM_SEEDS], lambda k: k))
+def test_random_creature_cell(key, anim_path):
+    _check(key, anim_path)

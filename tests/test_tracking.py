@@ -208,17 +208,39 @@ def walk():
     return load_bvh(WALK)
 
 
-@needs_walk
-def test_three_modes_on_a_walk(walk):
+#: What a user accepts of a tracked capture, as the rms of the tracking error (m), per mode
+#: by what the mode measures (engine/response/tracking.py): ``independent`` measures each
+#: sphere at its joint and ``constrained`` each capsule's joint end, held together by ball
+#: joints: within 3 cm the body stays inside the captured limb (a human forearm is 6-8 cm
+#: across), so the motion reads as the capture's. ``skeleton``'s capsules have no joints,
+#: so their joint ends swing apart with every turn of a bone: within 6 cm (a limb's width)
+#: the skeleton is still visibly the capture's pose. Measured (frames 0-120): walk 1.67 /
+#: 4.80 / 2.38 cm, start-walk-stop 0.99 / 2.38 / 1.10 cm.
+RMS_BOUND = {"independent": 0.03, "skeleton": 0.06, "constrained": 0.03}
+CLIPS = ["cmu_02_01_walk", "cmu_131_01_start_walk_stop_3dsmax",
+         pytest.param("cmu_01_01_playground_forward_jumps", marks=pytest.mark.xfail(
+             strict=True, raises=AssertionError,
+             reason="the jumps are not tracked: rms 71.5 / 77.1 / 38.9 cm (independent / skeleton / "
+                    "constrained) over frames 0-120: the bodies fall behind the capture in the air (the "
+                    "servos have nothing to push against) and never catch up"))]
+
+
+@pytest.mark.parametrize("clip", CLIPS)
+def test_three_modes_track_captures(clip):
+    path = str(shared_data("mocap", f"{clip}.bvh")) if has_shared_data() else ""
+    if not os.path.exists(path):
+        pytest.skip(f"{clip}.bvh not available (../shared/data/mocap)")
+    capture = load_bvh(path)
     rows = {}
     for mode in MODES:
-        rig = MocapRig(walk, mode, frames=(0, 120), params=TrackingParams(gravity_comp=True))
+        rig = MocapRig(capture, mode, frames=(0, 120), params=TrackingParams(gravity_comp=True))
         r = track(rig)
         rows[mode] = r
-        assert np.isfinite(r.mse) and r.mse < 0.01
-        assert len(r.report()["joints"]) == walk.njoint
-    print("\nwalk frames 0-120: " + ", ".join(f"{m} mse {r.mse:.2e} m^2 var {r.var:.2e}" for m, r in rows.items())
+        assert len(r.report()["joints"]) == capture.njoint
+    print(f"\n{clip} frames 0-120: " + ", ".join(f"{m} rms {np.sqrt(r.mse) * 100:.2f} cm" for m, r in rows.items())
           + f", constrained joint separation {rows['constrained'].max_joint_separation * 1000:.3f} mm")
+    for mode, r in rows.items():
+        assert np.isfinite(r.mse) and np.sqrt(r.mse) <= RMS_BOUND[mode], (mode, np.sqrt(r.mse))
     assert rows["constrained"].max_joint_separation < 1e-3
     assert rows["independent"].max_joint_separation == 0.0
 

@@ -30,6 +30,9 @@ COMPASS_TOL = 5e-4
 #: the largest pelvis roll (rad) a hip hike may use to get it.
 COMPASS_CLEAR = 0.1
 COMPASS_ROLL = 0.35
+#: Compass legs: the most the hip hike's roll eases out per frame, rad (a pelvis turning
+#: 0.05 rad in a frame is a fifth of the grid's rotation_pop warning).
+COMPASS_ROLL_STEP = 0.05
 #: Compass legs: share of the way to its touchdown circle a foot hanging at the end of its
 #: flight is drawn in per frame.
 COMPASS_REACH_IN = 0.15
@@ -488,9 +491,9 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
                                while owned by an animation, by ``slope_alpha`` per frame
     foot_tilt (F, 4)           out: each foot's slope rotation in its own heading frame
     root_dq (4,), root_dpos (3,)  slope/lean rotation and crouch offset added to the root
-    bob_state (6,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
-                               height and whether it is set (in/out), and the filter's share per
-                               frame (many fast feet must not shake the hips)
+    bob_state (7,), bob_alpha  low-pass filtered hip bob and sway, the compass legs' last root
+                               height and whether it is set, the hip hike's roll last frame (in/out),
+                               and the filter's share per frame (many fast feet must not shake the hips)
     foot_hip/jointrel/chain/rigid/knee/contact  see ``engine.gait.rig`` (compass legs, pivot feet)
     root_pos, root_rot, goal_* in/out (character space)
     step_lift_u, step_parked, step_done (S,)  as in ``gait_plan`` (a hanging compass leg lifts here)
@@ -617,6 +620,13 @@ def gait_pose(place_pos, yaw, heights, path, group_lift, group_bob, group_sway, 
             want = min(max(1.1 * deficit / lever, -COMPASS_ROLL), COMPASS_ROLL)
             if abs(want) > abs(roll):
                 roll = want
+    # the roll a hike no longer needs (its foot landed) eases out, COMPASS_ROLL_STEP per
+    # frame, instead of dropping in one frame (a 0.35 rad turn of the pelvis and a jump of
+    # the hips re-solved on the landed leg); a hike needed more takes effect at once
+    prev = bob_state[6]
+    if not (roll * prev >= 0.0 and abs(roll) >= abs(prev)):
+        roll = prev + min(max(roll - prev, -COMPASS_ROLL_STEP), COMPASS_ROLL_STEP)
+    bob_state[6] = roll
     if roll != 0.0:
         root_pos[2] -= dz_top
         q = _qmul(math.cos(0.5 * roll), math.sin(0.5 * roll), 0.0, 0.0, root_rot[0], root_rot[1], root_rot[2],

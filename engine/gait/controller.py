@@ -154,7 +154,7 @@ class GaitController:
         self.ground_plane = np.array([0.0, 0.0, 1.0, 0.0])
         self._root_dq = np.array([1.0, 0.0, 0.0, 0.0])
         self._root_dpos = np.zeros(3)
-        self._bob = np.zeros(6)               # see ``_kernels.gait_pose``
+        self._bob = np.zeros(7)               # see ``_kernels.gait_pose``
         self._row = np.zeros(8)
         self._tilt = np.zeros(2)             # filtered slope (dz/dx, dz/dy) in the character frame
         self._crouch = 0.0
@@ -652,6 +652,7 @@ class GaitController:
         self.foot_slope[:, 0] = c * self._tilt[0] - s * self._tilt[1]
         self.foot_slope[:, 1] = s * self._tilt[0] + c * self._tilt[1]
         self._bob[3] = 0.0                    # compass legs: no held hip height yet
+        self._bob[6] = 0.0                    # ... and no hip hike to ease out
         # start crouched as the style wants at rest (straight legs must bend to step)
         self._crouch = min(max((max(self._params(g, 0.0)[7] * r.group_length[g], self.min_crouch)
                                 for g in range(r.ngroup)), default=0.0), self.max_crouch)
