@@ -44,6 +44,7 @@ from engine.anim.evaluate import default_target, has_body_targets, make_scratch,
 from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
+from engine.gait import _step_kernels as SK
 from engine.ik.plan import DEFAULT_PARAMS, IKParams, plan_for
 from engine.jiggle.rig import JiggleRig
 from engine.mathx import quat_mul_batch_into, quat_rotate_batch_into, quat_rotate_inv_into
@@ -151,6 +152,7 @@ class _Stack:
         #: Rows whose feet stand (no locomotion controller): the gait stage holds their feet.
         self.stand = np.full(n, creature.nleg > 0, np.bool_)
         self.stand_call = None
+        self.gait_args = None
         self.rows = np.arange(n, dtype=np.int64)
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
@@ -468,12 +470,45 @@ def _blend_stack(s: _Stack, player: Player) -> None:
     s.blend_call.call()
 
 
+def _gait_args(s: _Stack) -> tuple:
+    """The character arrays the gait stage reads and writes (``engine.gait.gait_stage``);
+    ``ground``: the terrain under the character, for the passive bodies."""
+    if s.gait_args is None:
+        s.gait_args = (s.place_pos, s.place_rot, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw,
+                       s.goal_rw, s.ground, s.ground_set)
+    return s.gait_args
+
+
 def _gait_character(char: Character, dt: float) -> None:
     s, r = char._stack, char._row
-    char.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r], s.goal_rot[r],
-                   s.goal_pw[r], s.goal_rw[r])
-    s.ground[r] = char.gait.ground_plane          # the terrain under the character, for Jiggles
-    s.ground_set[r] = True
+    g = char.gait
+    hit = g._calls.get("char")
+    if hit is None or hit[0] is not s or hit[1] is not g._gs or hit[3] is not _row(r):
+        gs = g._gs
+        rows, crows = _row(g._gr), _row(r)
+        call = BoundKernel(SK.gait_rows, (float(dt), 0, rows, crows) + _gait_args(s) + gs.state_args + gs.rig_args,
+                           slots=(0,))
+        hit = g._calls["char"] = (s, gs, rows, crows, call)
+    from engine.gait.controller import gait_stage
+
+    gait_stage(dt, hit[1], hit[2], hit[3], _gait_args(s), hit[4])
+
+
+class _GaitBatch:
+    """The walking members of a crowd group: their controllers in one gait stack, stepped
+    and observed by one kernel call each (``engine.gait._step_kernels``)."""
+
+    def __init__(self, s: _Stack, walkers: list[Character]) -> None:
+        from engine.gait.controller import GaitStack, gait_stage
+
+        self.step = gait_stage
+        self.stack = GaitStack([m.gait for m in walkers], private=False)
+        self.rows = np.arange(len(walkers), dtype=np.int64)
+        self.crows = np.array([m._row for m in walkers], np.int64)
+        gs = self.stack
+        self.call = BoundKernel(SK.gait_rows, (1.0 / 60.0, 0, self.rows, self.crows) + _gait_args(s) + gs.state_args
+                                + gs.rig_args, slots=(0,))
+        self.observe = BoundKernel(SK.observe_rows, (self.rows, self.crows, s.char_pos, s.char_rot) + gs.observe_args)
 
 
 def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
@@ -700,6 +735,8 @@ class _Group:
         self._plan_list: list = []
         self._events_version = -1
         self._events = np.zeros(0, np.int64)
+        self._gait_epoch = -1
+        self._gait: _GaitBatch | None = None
 
     def tick(self, dt: float) -> None:
         s = self.stack
@@ -727,16 +764,15 @@ class _Group:
             _blend_stack(s, ref.player)
         # 5. gait: per member that locomotes (the controllers keep per-character state);
         #    the others stand, one kernel over the stack
+        gait = self._gait_batch()
         if st.gait:
-            for m in self.members:
-                if m.gait is not None:
-                    _gait_character(m, dt)
+            if gait is not None:
+                gait.step(dt, gait.stack, gait.rows, gait.crows, _gait_args(s), gait.call)
             _stand_rows(s, s.rows)
         # 6. IK: one kernel per IK plan over the members using it
         self._solve(st.ik)
-        for m in self.members:
-            if m.gait is not None:
-                m.gait.observe(s.char_pos[m._row], s.char_rot[m._row])
+        if gait is not None:
+            gait.observe.call()      # what the IK made of the feet's goals
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
@@ -744,6 +780,14 @@ class _Group:
         if _REACTING:
             for m in [m for m in _REACTING if m._stack is s]:
                 m.response.tick(dt)
+
+    def _gait_batch(self) -> _GaitBatch | None:
+        """The walking members' batch, re-gathered when a controller was made or moved."""
+        if self._gait_epoch != SK.EPOCH[0]:
+            walkers = [m for m in self.members if m.gait is not None]
+            self._gait = _GaitBatch(self.stack, walkers) if walkers else None
+            self._gait_epoch = SK.EPOCH[0]
+        return self._gait
 
     def _event_rows(self) -> np.ndarray:
         """Rows of the members playing clips with key events (rebuilt when clips change)."""
