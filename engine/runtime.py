@@ -762,8 +762,8 @@ class _Group:
         # 4. blend: one kernel over the stack
         if st.blend:
             _blend_stack(s, ref.player)
-        # 5. gait: per member that locomotes (the controllers keep per-character state);
-        #    the others stand, one kernel over the stack
+        # 5. gait: the members that locomote in one kernel (their controllers' state in one
+        #    gait stack), the others stand, one kernel over the stack
         gait = self._gait_batch()
         if st.gait:
             if gait is not None:
