@@ -41,6 +41,10 @@ from engine import runtime as R  # noqa: E402
 from engine.anim import load_animation  # noqa: E402
 
 DT = 1 / 60
+#: The clock of the per-frame figures: wall time (default), or this process's CPU time
+#: (``--cpu``: on a machine shared with other work, what a frame costs the core it runs on;
+#: only meaningful for the one-thread figures).
+CLOCK = [time.perf_counter]
 FIRST_TICK = """
 import time, sys
 t0 = time.perf_counter()
@@ -106,7 +110,7 @@ STAGE_NAMES = ("prev_pose", "player", "sample_specialize", "blend", "gait_stand"
 def timed_tick(ch: R.Character, times: dict[str, list[float]]) -> None:
     """One tick, stage by stage, as ``Character.tick`` runs them (every call it makes, so
     the stages add up to the tick)."""
-    pc = time.perf_counter
+    pc = CLOCK[0]
     s, r = ch._stack, ch._row
     t0 = pc()
     np.copyto(ch._prev_world_pos, ch.world_positions)
@@ -141,7 +145,7 @@ GROUP_STAGES = ("prev_pose", "player", "sample_specialize", "blend", "gait", "st
 
 def timed_group_tick(g, times: dict[str, list[float]]) -> None:
     """One tick of a crowd group (``engine.runtime._Group.tick``), stage by stage."""
-    pc = time.perf_counter
+    pc = CLOCK[0]
     s = g.stack
     ref = g.members[0]
     t0 = pc()
@@ -186,9 +190,9 @@ def single(creature, anim, frames: int) -> tuple[float, dict[str, float]]:
         ch.tick(DT)
     ticks = []
     for _ in range(frames):
-        t = time.perf_counter()
+        t = CLOCK[0]()
         ch.tick(DT)
-        ticks.append(time.perf_counter() - t)
+        ticks.append(CLOCK[0]() - t)
     stages: dict[str, list[float]] = {k: [] for k in STAGE_NAMES}
     for _ in range(frames):
         timed_tick(ch, stages)
@@ -210,9 +214,9 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
     group = engine.Crowd(chars)
     ticks = []
     for _ in range(5 + frames):
-        t = time.perf_counter()
+        t = CLOCK[0]()
         group.tick(DT)
-        ticks.append(time.perf_counter() - t)
+        ticks.append(CLOCK[0]() - t)
         for a in alone:
             a.tick(DT)
     diff = max(float(np.abs(a.world_positions - c.world_positions).max())
@@ -258,9 +262,9 @@ def mixed_crowd(n: int, walking: float, frames: int, stages: bool = False):
     try:
         ticks = []
         for _ in range(5 + frames):
-            t = time.perf_counter()
+            t = CLOCK[0]()
             group.tick(DT)
-            ticks.append(time.perf_counter() - t)
+            ticks.append(CLOCK[0]() - t)
         per_stage: dict[str, list[float]] = {k: [] for k in GROUP_STAGES}
         if stages:
             for _ in range(frames):
@@ -282,7 +286,10 @@ def main() -> None:
     ap.add_argument("--crowd", type=int, default=1000)
     ap.add_argument("--crowd-frames", type=int, default=20)
     ap.add_argument("--quick", action="store_true", help="fewer frames, no start-up measurement")
+    ap.add_argument("--cpu", action="store_true", help="time frames by this process's CPU time, not wall time")
     args = ap.parse_args()
+    if args.cpu:
+        CLOCK[0] = time.process_time
     if args.quick:
         args.frames, args.crowd_frames = 300, 5
 

@@ -41,6 +41,7 @@ from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
 from engine.anim.evaluate import default_target, has_body_targets, make_scratch, make_scratches
+from engine.anim.player import CHANGES as _PLAYER_CHANGES
 from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
@@ -737,6 +738,7 @@ class _Group:
         self._events = np.zeros(0, np.int64)
         self._gait_epoch = -1
         self._gait: _GaitBatch | None = None
+        self._events_seen = self._pairs_seen = self._plans_seen = (-1, -1)
 
     def tick(self, dt: float) -> None:
         s = self.stack
@@ -789,8 +791,17 @@ class _Group:
             self._gait_epoch = SK.EPOCH[0]
         return self._gait
 
+    def _changes(self) -> tuple[int, int]:
+        """What the version sums below depend on: nothing changed since the last frame if
+        no player changed its clips and no gait controller was made (then the sums over a
+        thousand members are skipped)."""
+        return _PLAYER_CHANGES[0], SK.EPOCH[0]
+
     def _event_rows(self) -> np.ndarray:
         """Rows of the members playing clips with key events (rebuilt when clips change)."""
+        if self._changes() == self._events_seen:
+            return self._events
+        self._events_seen = self._changes()
         version = sum(m.player.version for m in self.members)
         if version != self._events_version:
             self._events = np.array([row for row, m in enumerate(self.members) if m.player.has_event_clips], np.int64)
@@ -800,6 +811,9 @@ class _Group:
     def _pair_groups(self) -> list:
         """(buffer, first clip, pair count, members with external targets) per bound
         variant playing in the group, rebuilt only when a member's clips changed."""
+        if self._changes() == self._pairs_seen:
+            return self._pair_list
+        self._pairs_seen = self._changes()
         version = sum(m.player.version for m in self.members)
         if version == self._pairs_version:
             return self._pair_list
@@ -828,34 +842,36 @@ class _Group:
                 if buf.scratches is None or buf.scratches.work33.shape[0] != chunks:
                     buf.scratches = make_scratches(clip0.animation, clip0.bound, chunks)
                 scratches = buf.scratches
-            # Views made once per change, not per frame.
-            out.append((clip0, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k], external,
-                        scratches))
+            # Views and kernel calls bound to them (engine._fastcall) made once per change,
+            # not per frame.
+            pair_char, pair_slot, times, tables = buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k]
+            s, c, bv = self.stack, self.creature, clip0.bound
+            gather = BoundKernel(RK.gather_times, (s.player.time, pair_char, pair_slot, times))
+            sample = BoundKernel(RK.goals_pairs if scratches is None else RK.goals_pairs_parallel, (
+                clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times, pair_char, pair_slot,
+                c.body_rest_pos, c.body_rest_rot, clip0.scratch if scratches is None else scratches, s.sg_pos,
+                s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, c.body_parent, c.body_local_pos, c.body_local_rot,
+                clip0.body_targets))
+            out.append((gather, sample, tables, external, scratches is not None))
         self._pair_list, self._pairs_version = out, version
         return out
 
     def _sample(self) -> None:
-        s = self.stack
-        c = self.creature
-        for clip0, pair_char, pair_slot, times, tables, external, scratches in self._pair_groups():
-            RK.gather_times(s.player.time, pair_char, pair_slot, times)
+        for gather, sample, tables, external, parallel in self._pair_groups():
+            gather.call()
             for i, clip, m in external:
                 _fill_external(m, clip, tables[i])
-            bv = clip0.bound
-            if scratches is None:
-                RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
-                               pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
-                               s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, c.body_parent, c.body_local_pos,
-                               c.body_local_rot, clip0.body_targets)
-            else:
+            if parallel:
                 with numba.parallel_chunksize(1):   # chunks handed out as threads free up
-                    RK.goals_pairs_parallel(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
-                                            tables, times, pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot,
-                                            scratches, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext,
-                                            c.body_parent, c.body_local_pos, c.body_local_rot, clip0.body_targets)
+                    sample.call()
+            else:
+                sample.call()
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
+        if self._changes() == self._plans_seen:
+            return self._plan_list
+        self._plans_seen = self._changes()
         version = sum(m.player.version + (0 if m.gait is None else m.gait.version) for m in self.members)
         if version == self._plans_version:
             return self._plan_list
