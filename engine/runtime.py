@@ -755,7 +755,7 @@ class _Group:
             rows = np.flatnonzero(s.player.flags.any(axis=1))
             event_rows = self._event_rows()
             if event_rows.shape[0]:
-                rows = np.union1d(rows, event_rows)
+                rows = np.union1d(rows, self._event_hits(event_rows))
             for row in rows:
                 self.members[row].player.after_advance()
         # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
@@ -806,7 +806,33 @@ class _Group:
         if version != self._events_version:
             self._events = np.array([row for row, m in enumerate(self.members) if m.player.has_event_clips], np.int64)
             self._events_version = version
+            # the key times of each slot's clip (NaN-padded) and the rows whose new clips
+            # fire an event at their start time on their first frame
+            times = [[sorted({e.t for ch in h.animation.channels for e in ch.events}) if h is not None else []
+                      for h in self.members[row].player.handles] for row in self._events]
+            width = max([len(t) for slots in times for t in slots], default=0)
+            self._event_times = np.full((len(times), self.stack.player.time.shape[1], max(width, 1)), np.nan)
+            for i, slots in enumerate(times):
+                for k, t in enumerate(slots):
+                    self._event_times[i, k, :len(t)] = t
+            self._event_first = np.array([any(h is not None and getattr(h, "_events_from_start", False)
+                                              for h in self.members[row].player.handles) for row in self._events],
+                                         np.bool_)
         return self._events
+
+    def _event_hits(self, rows: np.ndarray) -> np.ndarray:
+        """The rows of ``rows`` (``_event_rows``) where a key may fire this frame: a key time
+        within [prev, now] of a slot (both ends in, so never one too few; the player then
+        decides exactly), or a clip's first frame; wraps and ends are flagged anyway."""
+        a = self.stack.player
+        t0 = a.prev_time[rows]
+        t1 = a.time[rows]
+        lo = np.minimum(t0, t1)[:, :, None]
+        hi = np.maximum(t0, t1)[:, :, None]
+        tab = self._event_times
+        hit = ((tab >= lo) & (tab <= hi)).any(axis=(1, 2)) | self._event_first
+        self._event_first[:] = False
+        return rows[hit]
 
     def _pair_groups(self) -> list:
         """(buffer, first clip, pair count, members with external targets) per bound
