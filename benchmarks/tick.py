@@ -153,13 +153,7 @@ def timed_group_tick(g, times: dict[str, list[float]]) -> None:
     np.copyto(s.prev_world_rot, s.world_rot)
     s.last_dt = DT
     t1 = pc()
-    R.advance_arrays(s.player, DT)
-    rows = np.flatnonzero(s.player.flags.any(axis=1))
-    event_rows = g._event_rows()
-    if event_rows.shape[0]:
-        rows = np.union1d(rows, event_rows)
-    for row in rows:
-        g.members[row].player.after_advance()
+    g._player(DT)
     t2 = pc()
     g._sample()
     t3 = pc()

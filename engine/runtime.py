@@ -749,15 +749,7 @@ class _Group:
         s.last_dt = dt
         # 1. player: every clip slot of every member in one kernel
         if st.player:
-            advance_arrays(s.player, dt)
-            # Python only for members where something happened or whose clips have events
-            # (no loop over a thousand members per frame).
-            rows = np.flatnonzero(s.player.flags.any(axis=1))
-            event_rows = self._event_rows()
-            if event_rows.shape[0]:
-                rows = np.union1d(rows, self._event_hits(event_rows))
-            for row in rows:
-                self.members[row].player.after_advance()
+            self._player(dt)
         # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
         if st.sample:
             self._sample()
@@ -782,6 +774,18 @@ class _Group:
         if _REACTING:
             for m in [m for m in _REACTING if m._stack is s]:
                 m.response.tick(dt)
+
+    def _player(self, dt: float) -> None:
+        s = self.stack
+        advance_arrays(s.player, dt)
+        # Python only for members where something happened or where a clip's key may fire
+        # (no loop over a thousand members per frame).
+        rows = np.flatnonzero(s.player.flags.any(axis=1))
+        event_rows = self._event_rows()
+        if event_rows.shape[0]:
+            rows = np.union1d(rows, self._event_hits(event_rows))
+        for row in rows:
+            self.members[row].player.after_advance()
 
     def _gait_batch(self) -> _GaitBatch | None:
         """The walking members' batch, re-gathered when a controller was made or moved."""
