@@ -6,6 +6,8 @@ Prints a table and ends with one JSON line: bodies, channels, single_ms (median 
 one 25-body humanoid playing the 12-channel ``perform`` animation), crowd_size,
 crowd_ms_per_character (median crowd tick / crowd size; big crowds sample and solve on
 all cores), crowd_serial_ms_per_character (the same crowd kept on one thread),
+crowd_busy_core_ms_per_character (the crowd free to use all cores while a second process
+keeps one busy: it must not exceed the serial figure),
 mixed_crowd_ms_per_character (``--crowd`` characters of eight library creatures, varied
 animations, half of them walking, one thread), mixed_walking_ms_per_character (the
 same, all walking), crowd_vs_alone_max_m (largest pose difference between three crowd members and the same
@@ -207,7 +209,8 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
     alone = [make(k) for k in range(3)]
     group = engine.Crowd(chars)
     ticks = []
-    for _ in range(5 + frames):
+    warm = 5 + 2 * R._ThreadChoice.PROBE     # and the frames that choose serial or parallel
+    for _ in range(warm + frames):
         t = CLOCK[0]()
         group.tick(DT)
         ticks.append(CLOCK[0]() - t)
@@ -215,7 +218,19 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
             a.tick(DT)
     diff = max(float(np.abs(a.world_positions - c.world_positions).max())
                for a, c in zip(alone, chars[:3], strict=True))
-    return float(np.median(ticks[5:]) * 1e3 / n), diff
+    return float(np.median(ticks[warm:]) * 1e3 / n), diff
+
+
+def busy_core_crowd(creature, anim, n: int, frames: int) -> float:
+    """``crowd`` (all threads allowed) while a second process keeps a core busy, as a
+    game's other threads do: the crowd must then choose serial (``_ThreadChoice``)."""
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.2)
+        return crowd(creature, anim, n, frames)[0]
+    finally:
+        busy.kill()
+        busy.wait()
 
 
 MIXED = ("humanoid", "dog", "spider", "snake", "hexapod", "trex", "octopus", "centipede")
@@ -298,6 +313,7 @@ def main() -> None:
     R.PARALLEL_MIN_ROWS = 1 << 30   # the same crowd on one thread
     crowd_serial_ms = crowd(human, anim, args.crowd, args.crowd_frames)[0]
     R.PARALLEL_MIN_ROWS = parallel_min
+    busy_ms = busy_core_crowd(human, anim, args.crowd, args.crowd_frames)
     mixed_ms, mixed_stages = mixed_crowd(args.crowd, 0.5, args.crowd_frames, stages=True)
     mixed_walk_ms = mixed_crowd(args.crowd, 1.0, args.crowd_frames)
     cold = warm = None
@@ -318,6 +334,8 @@ def main() -> None:
         print(f"{'  ' + k + ' bodies, ms':<34}{v:>12.4f}")
     print(f"{'crowd of ' + str(args.crowd) + ', ms per character':<34}{crowd_ms:>12.4f}")
     print(f"{'  on one thread, ms per character':<34}{crowd_serial_ms:>12.4f}")
+    print(f"{'  other core busy, ms per char':<34}{busy_ms:>12.4f}")
+    print(f"{'  busy / serial':<34}{busy_ms / crowd_serial_ms:>12.2f}")
     print(f"{'  crowd vs alone, max m':<34}{crowd_diff:>12.2e}")
     print(f"{'mixed crowd, half walking, ms/ch':<34}{mixed_ms:>12.4f}")
     for k, v in mixed_stages.items():
@@ -339,6 +357,7 @@ def main() -> None:
     print(json.dumps({"bodies": human.nbody, "channels": anim.nchannel, "single_ms": round(single_ms, 5),
                       "crowd_size": args.crowd, "crowd_ms_per_character": round(crowd_ms, 5),
                       "crowd_serial_ms_per_character": round(crowd_serial_ms, 5),
+                      "crowd_busy_core_ms_per_character": round(busy_ms, 5),
                       "mixed_crowd_ms_per_character": round(mixed_ms, 5),
                       "mixed_walking_ms_per_character": round(mixed_walk_ms, 5),
                       "mixed_stages_ms_per_character": {k: round(v, 6) for k, v in mixed_stages.items()},

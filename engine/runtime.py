@@ -29,6 +29,7 @@ new combination of playing clips (binding and IK plans are built once and cached
 from __future__ import annotations
 
 import math
+import time
 import weakref
 from dataclasses import dataclass
 
@@ -739,8 +740,17 @@ class _Group:
         self._gait_epoch = -1
         self._gait: _GaitBatch | None = None
         self._events_seen = self._pairs_seen = self._plans_seen = (-1, -1)
+        #: Whether this frame runs the big stages on all cores (``_ThreadChoice``).
+        self._parallel = True
+        self._threads = _ThreadChoice()
 
     def tick(self, dt: float) -> None:
+        self._parallel = self._threads.choose()
+        t0 = time.perf_counter()
+        self._tick(dt)
+        self._threads.record(self._parallel, time.perf_counter() - t0)
+
+    def _tick(self, dt: float) -> None:
         s = self.stack
         ref = self.members[0]
         st = ref.stages
@@ -877,25 +887,28 @@ class _Group:
             pair_char, pair_slot, times, tables = buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k]
             s, c, bv = self.stack, self.creature, clip0.bound
             gather = BoundKernel(RK.gather_times, (s.player.time, pair_char, pair_slot, times))
-            sample = BoundKernel(RK.goals_pairs if scratches is None else RK.goals_pairs_parallel, (
-                clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times, pair_char, pair_slot,
-                c.body_rest_pos, c.body_rest_rot, clip0.scratch if scratches is None else scratches, s.sg_pos,
-                s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, c.body_parent, c.body_local_pos, c.body_local_rot,
-                clip0.body_targets))
-            out.append((gather, sample, tables, external, scratches is not None))
+            args = [clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times, pair_char,
+                    pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw,
+                    clip0.n_ext, c.body_parent, c.body_local_pos, c.body_local_rot, clip0.body_targets]
+            serial = BoundKernel(RK.goals_pairs, tuple(args))
+            parallel = None
+            if scratches is not None:
+                args[10] = scratches
+                parallel = BoundKernel(RK.goals_pairs_parallel, tuple(args))
+            out.append((gather, serial, parallel, tables, external))
         self._pair_list, self._pairs_version = out, version
         return out
 
     def _sample(self) -> None:
-        for gather, sample, tables, external, parallel in self._pair_groups():
+        for gather, serial, parallel, tables, external in self._pair_groups():
             gather.call()
             for i, clip, m in external:
                 _fill_external(m, clip, tables[i])
-            if parallel:
+            if parallel is not None and self._parallel:
                 with numba.parallel_chunksize(1):   # chunks handed out as threads free up
-                    sample.call()
+                    parallel.call()
             else:
-                sample.call()
+                serial.call()
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
@@ -929,7 +942,7 @@ class _Group:
         for plan, scratch, idx, scratches in self._plan_groups():
             if ik_on:
                 b = plan.blobs
-                if scratches is None:
+                if scratches is None or not self._parallel:
                     nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos,
                                             s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch,
                                             s.ik_bad)
@@ -962,6 +975,51 @@ def _parallel_chunks(nrow: int) -> int:
     if nrow < PARALLEL_MIN_ROWS or numba.get_num_threads() < 2:
         return 1
     return max(1, min(nrow, 8 * numba.get_num_threads()))
+
+
+class _ThreadChoice:
+    """Serial or parallel, by measuring: a crowd group's big stages run on all cores only
+    while that makes its frames faster. The first frames alternate the two (``PROBE``
+    frames each) and the faster median wins; the choice is measured again every
+    ``REPROBE`` frames (the load of the machine changes), and a parallel frame that takes
+    more than ``LATE`` times the serial median (a thread descheduled: a core busy
+    elsewhere) falls back to serial at once. Both paths give the same poses, bit for bit
+    (the same kernels on the same rows), so switching never shows."""
+
+    PROBE = 4
+    REPROBE = 600
+    LATE = 1.5
+
+    __slots__ = ("serial", "parallel", "mode", "frame")
+
+    def __init__(self) -> None:
+        self.serial: list[float] = []
+        self.parallel: list[float] = []
+        self.mode: bool | None = None       # None while probing
+        self.frame = 0
+
+    def choose(self) -> bool:
+        if numba.get_num_threads() < 2:
+            return False
+        self.frame += 1
+        if self.mode is not None and self.frame % self.REPROBE == 0:
+            self.mode = None
+            self.serial.clear()
+            self.parallel.clear()
+        if self.mode is None:
+            return len(self.parallel) <= len(self.serial)     # alternate, parallel first
+        return self.mode
+
+    def record(self, parallel: bool, seconds: float) -> None:
+        if numba.get_num_threads() < 2:
+            return
+        if self.mode is None:
+            (self.parallel if parallel else self.serial).append(seconds)
+            if len(self.serial) >= self.PROBE and len(self.parallel) >= self.PROBE:
+                # the first frame of each may still fill caches: compare the rest
+                self.mode = bool(np.median(self.parallel[1:]) < np.median(self.serial[1:]))
+        elif parallel and self.serial and seconds > self.LATE * float(np.median(self.serial[1:] or self.serial)):
+            self.mode = False
 
 
 class _PairBuffer:
