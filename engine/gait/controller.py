@@ -107,8 +107,6 @@ ROW_FIELDS = ("_sv", "_cmd_v", "velocity", "_prev_v", "_last_place", "group_phas
               "_tilt", "_lean", "_cal_crouch", "_cal_sweep", "group_stretch", "foot_bias", "_prev_root_pos",
               "_prev_root_rot", "_goal_written", "_tab", "_tab_n", "_tab_w", "_tab_nl", "_sc_cap", "_sc_top",
               "_sc_ptop", "_sc_sa", "_sc_settle")
-#: Fields the observe kernel takes besides (``_sv``, ``_goal_written``, ``step_state``, ``foot_bias``).
-_OBSERVE_FIELDS = ("_sv", "_goal_written", "step_state", "foot_bias", "_cal_bias", "_observe_limit")
 _STACK_FIELDS = ROW_FIELDS + ("_cal_bias", "_observe_limit")
 
 
