@@ -6,7 +6,7 @@
 #   bash setup.sh dev      + test tools (pytest, hypothesis, ruff, pillow) and everything the
 #                            tests exercise (the grid and author extras; Debian's chromium for
 #                            the report test and xvfb for the real-window tests)
-#   bash setup.sh bench    + reference peers for the benchmarks (ikpy, mujoco)
+#   bash setup.sh bench    + reference peers for the benchmarks (ikpy, mujoco, pybullet)
 # Needs only Python 3.11+ and the package registries. Offscreen rendering uses EGL
 # (Mesa); when its libraries are missing and we are root, they are installed with apt.
 set -euo pipefail

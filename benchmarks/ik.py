@@ -8,16 +8,22 @@ Prints a table and ends with one JSON line. Figures (all measured in this run):
   random reachable goals, median over many calls;
 - ``batch_us_per_solve``: ``solve_ik_batch`` over a crowd of independent characters;
 - ``reach_error_rel_max``: worst goal error / limb length over goals within 95% of reach;
-- ``chain_solve_us_median``: our solver on a 6-joint arm (``arm_chain_creature(6)``),
-  ``ikpy_solve_us_median``: ikpy on the same chain and targets, and their ratio;
+- ``chain_solve_us_median``: our solver on a 6-joint arm (``arm_chain_creature(6)``: six
+  *ball* joints, 18 degrees of freedom), ``ikpy_solve_us_median``: ikpy on six *revolute*
+  joints (6 degrees of freedom: not equal terms) and the same targets, and their ratio;
+  ``ikpy_ball_*``: ikpy on the same 18 degrees of freedom (three revolute joints per ball
+  joint), the comparison on equal terms; ``pybullet_*``: PyBullet's
+  ``calculateInverseKinematics`` (C++, damped least squares) on the 6 revolute joints at
+  its default 20 iterations, ``pybullet_100_*`` at 100, ``pybullet_ball_*`` on the 18;
+  time and worst tip error side by side (``--ikpy 0`` skips the chain);
 - ``self_collision_us``: what the limb phase's self-collision (``IKParams.self_collision``,
   off by default until the IK tests pass with it) adds to one solve: median of the same solves with it on minus off,
   interleaved goal set by goal set; ``reach_error_rel_max_no_self_collision``: the
   accuracy figure with it off (random reachable poses are drawn without regard to the
   body, so some put a hand inside the torso, where it now stops at the surface);
 - a per-stage profile of one solve (each stage timed alone in a loop inside numba).
-Requires the ``bench`` extra for ikpy (``pip install ikpy``); without it the ikpy figures
-are null.
+Requires the ``bench`` extra for ikpy and pybullet (``pip install -e .[bench]``); without
+them their figures are null.
 """
 
 from __future__ import annotations
@@ -127,33 +133,130 @@ def stage_profile(solver, root_pos, root_rot):
     return out
 
 
-def ikpy_chain(c):
-    """The arm of ``arm_chain_creature`` as an ikpy chain: a revolute joint at every body
-    joint (axes alternating z, y, x so the arm can reach in 3-D), a fixed tip at the hand's
-    origin."""
-    from ikpy.chain import Chain
-    from ikpy.link import OriginLink, URDFLink
+AXES = (np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]))
 
-    axes = (np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]))
-    links = [OriginLink()]
+
+def chain_joints(c, ball: bool):
+    """The joints of the arm of ``arm_chain_creature`` for the peers: (translation from
+    the previous joint, axis) per revolute joint, and the tip's offset from the last joint.
+    ``ball=False``: one revolute joint per body joint, axes alternating z, y, x so the arm
+    can reach in 3-D (6 degrees of freedom); ``ball=True``: three (z, y, x) at each body
+    joint, the same 18 degrees of freedom as our ball-jointed chain."""
+    out = []
     prev = np.zeros(3)
     for b in range(1, c.nbody):
         j = c.body_joint[b]
-        links.append(URDFLink(name=f"j{b}", origin_translation=j - prev, origin_orientation=np.zeros(3),
-                              rotation=axes[(b - 1) % 3], bounds=(-np.pi, np.pi)))
+        axes = AXES if ball else (AXES[(b - 1) % 3],)
+        for k, axis in enumerate(axes):
+            out.append((j - prev if k == 0 else np.zeros(3), axis))
         prev = j
-    hand = c.nbody - 1
-    links.append(URDFLink(name="tip", origin_translation=c.body_rest_pos[hand] - prev,
-                          origin_orientation=np.zeros(3), rotation=None, joint_type="fixed"))
-    mask = [False] + [True] * (c.nbody - 1) + [False]
+    return out, c.body_rest_pos[c.nbody - 1] - prev
+
+
+def ikpy_chain(c, ball: bool = False):
+    """The arm as an ikpy chain (``chain_joints``), a fixed tip at the hand's origin."""
+    from ikpy.chain import Chain
+    from ikpy.link import OriginLink, URDFLink
+
+    joints, tip = chain_joints(c, ball)
+    links = [OriginLink()]
+    for k, (t, axis) in enumerate(joints):
+        links.append(URDFLink(name=f"j{k}", origin_translation=t, origin_orientation=np.zeros(3), rotation=axis,
+                              bounds=(-np.pi, np.pi)))
+    links.append(URDFLink(name="tip", origin_translation=tip, origin_orientation=np.zeros(3), rotation=None,
+                          joint_type="fixed"))
+    mask = [False] + [True] * len(joints) + [False]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return Chain(links, active_links_mask=mask)
 
 
+def chain_urdf(c, ball: bool) -> str:
+    """The arm as URDF text for PyBullet (``chain_joints``; massless-looking links: IK
+    only reads the kinematics)."""
+    joints, tip = chain_joints(c, ball)
+    inertial = ('<inertial><mass value="0.1"/><inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" '
+                'izz="1e-4"/></inertial>')
+    parts = ['<?xml version="1.0"?>', '<robot name="arm">', f'<link name="l0">{inertial}</link>']
+    for k, (t, axis) in enumerate(joints):
+        parts.append(f'<link name="l{k + 1}">{inertial}</link>')
+        parts.append(f'<joint name="j{k}" type="revolute"><parent link="l{k}"/><child link="l{k + 1}"/>'
+                     f'<origin xyz="{t[0]:.9g} {t[1]:.9g} {t[2]:.9g}" rpy="0 0 0"/>'
+                     f'<axis xyz="{axis[0]:g} {axis[1]:g} {axis[2]:g}"/>'
+                     f'<limit lower="-3.14159" upper="3.14159" effort="10" velocity="10"/></joint>')
+    n = len(joints)
+    parts.append(f'<link name="tip">{inertial}</link>')
+    parts.append(f'<joint name="tip" type="fixed"><parent link="l{n}"/><child link="tip"/>'
+                 f'<origin xyz="{tip[0]:.9g} {tip[1]:.9g} {tip[2]:.9g}" rpy="0 0 0"/></joint>')
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+def pybullet_benchmark(c, targets, ball: bool, iterations: int):
+    """PyBullet's ``calculateInverseKinematics`` (C++, damped least squares) on the arm:
+    median time per call and the tip's error (m) after setting the joints it returns;
+    each call starts from the zero pose, as ours and ikpy's do. None without pybullet."""
+    try:
+        import pybullet as pb
+    except ImportError:
+        return None
+    import tempfile
+
+    cid = pb.connect(pb.DIRECT)
+    try:
+        with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as f:
+            f.write(chain_urdf(c, ball))
+            path = f.name
+        base = np.asarray(c.body_rest_pos[0]) * 0.0      # the chain's origin is the world origin
+        body = pb.loadURDF(path, basePosition=base.tolist(), useFixedBase=True, physicsClientId=cid)
+        os.unlink(path)
+        nj = pb.getNumJoints(body, physicsClientId=cid)
+        tip = nj - 1
+        movable = [j for j in range(nj) if pb.getJointInfo(body, j, physicsClientId=cid)[2] == pb.JOINT_REVOLUTE]
+        times, errs = [], []
+        for t in targets:
+            for j in movable:
+                pb.resetJointState(body, j, 0.0, physicsClientId=cid)
+            t0 = time.perf_counter()
+            q = pb.calculateInverseKinematics(body, tip, t.tolist(), maxNumIterations=iterations,
+                                              residualThreshold=1e-6, physicsClientId=cid)
+            times.append((time.perf_counter() - t0) * 1e6)
+            for j, v in zip(movable, q, strict=True):
+                pb.resetJointState(body, j, v, physicsClientId=cid)
+            got = np.array(pb.getLinkState(body, tip, computeForwardKinematics=1, physicsClientId=cid)[4])
+            errs.append(float(np.linalg.norm(got - t)))
+        return dict(us=float(np.median(times)), error_median_m=float(np.median(errs)), error_max_m=float(max(errs)))
+    finally:
+        pb.disconnect(cid)
+
+
+def _ikpy_run(chain, targets):
+    times, errs = [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for t in targets:
+            t0 = time.perf_counter()
+            q = chain.inverse_kinematics(t)
+            times.append((time.perf_counter() - t0) * 1e6)
+            errs.append(float(np.linalg.norm(chain.forward_kinematics(q)[:3, 3] - t)))
+    return float(np.median(times)), float(max(errs))
+
+
 def chain_benchmark(n_targets, rng, with_ikpy):
+    """Ours, ikpy and PyBullet on a 6-body arm. Ours is always the ball-jointed chain (18
+    degrees of freedom); the peers run on the same 18 (``*_ball_*``: three revolute joints
+    per body joint) and on 6 revolute joints (ikpy's usual model; the targets are drawn
+    from it, so every target is reachable by both)."""
     c = arm_chain_creature(6)
     hand = c.nbody - 1
+    none = dict(chain_solve_us_median=None, chain_error_max_m=None, chain_reach_m=None, chain_targets=0,
+                ikpy_solve_us_median=None, ikpy_error_max_m=None, speedup_vs_ikpy=None,
+                ikpy_ball_solve_us_median=None, ikpy_ball_error_max_m=None, speedup_vs_ikpy_ball=None,
+                pybullet_solve_us_median=None, pybullet_error_median_m=None, pybullet_error_max_m=None,
+                pybullet_100_solve_us_median=None, pybullet_100_error_max_m=None,
+                pybullet_ball_solve_us_median=None, pybullet_ball_error_max_m=None)
+    if n_targets <= 0:
+        return none
     solver = IKSolver(c, [hand])
     reach = c.body_limb_length[hand] + np.linalg.norm(c.body_rest_pos[hand] - c.body_joint[hand])
     attach = c.body_joint[1]
@@ -180,21 +283,21 @@ def chain_benchmark(n_targets, rng, with_ikpy):
         ts = time_calls(lambda: solve_ik(solver.plan, root_pos, root_rot, solver.goals, solver.out_pos,
                                          solver.out_rot, solver.scratch), 20, 10)
         ours_t.append(float(np.median(ts)))
-    res = dict(chain_solve_us_median=float(np.median(ours_t)), chain_error_max_m=float(max(ours_err)),
-               chain_reach_m=float(reach))
+    res = dict(none, chain_solve_us_median=float(np.median(ours_t)), chain_error_max_m=float(max(ours_err)),
+               chain_reach_m=float(reach), chain_targets=len(targets))
+    ours_us = res["chain_solve_us_median"]
     if chain is not None:
-        ik_t, ik_err = [], []
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            for t in targets:
-                t0 = time.perf_counter()
-                q = chain.inverse_kinematics(t)
-                ik_t.append((time.perf_counter() - t0) * 1e6)
-                ik_err.append(float(np.linalg.norm(chain.forward_kinematics(q)[:3, 3] - t)))
-        res.update(ikpy_solve_us_median=float(np.median(ik_t)), ikpy_error_max_m=float(max(ik_err)))
-        res["speedup_vs_ikpy"] = res["ikpy_solve_us_median"] / res["chain_solve_us_median"]
-    else:
-        res.update(ikpy_solve_us_median=None, ikpy_error_max_m=None, speedup_vs_ikpy=None)
+        us, err = _ikpy_run(chain, targets)
+        res.update(ikpy_solve_us_median=us, ikpy_error_max_m=err, speedup_vs_ikpy=us / ours_us)
+        us, err = _ikpy_run(ikpy_chain(c, ball=True), targets)
+        res.update(ikpy_ball_solve_us_median=us, ikpy_ball_error_max_m=err, speedup_vs_ikpy_ball=us / ours_us)
+    for ball, iters, key in ((False, 20, "pybullet"), (False, 100, "pybullet_100"), (True, 20, "pybullet_ball")):
+        pb = pybullet_benchmark(c, targets, ball, iters)
+        if pb is not None:
+            res[f"{key}_solve_us_median"] = pb["us"]
+            res[f"{key}_error_max_m"] = pb["error_max_m"]
+            if key == "pybullet":
+                res["pybullet_error_median_m"] = pb["error_median_m"]
     return res
 
 
@@ -312,9 +415,22 @@ def main(argv=None):
             ("chain_solve_us_median", chain["chain_solve_us_median"]),
             ("chain_error_max_m", chain["chain_error_max_m"]),
             ("ikpy_solve_us_median", chain["ikpy_solve_us_median"]),
-            ("ikpy_error_max_m", chain["ikpy_error_max_m"]), ("speedup_vs_ikpy", chain["speedup_vs_ikpy"])]
+            ("ikpy_error_max_m", chain["ikpy_error_max_m"]), ("speedup_vs_ikpy", chain["speedup_vs_ikpy"]),
+            ("ikpy_ball_solve_us_median", chain["ikpy_ball_solve_us_median"]),
+            ("ikpy_ball_error_max_m", chain["ikpy_ball_error_max_m"]),
+            ("speedup_vs_ikpy_ball", chain["speedup_vs_ikpy_ball"]),
+            ("pybullet_solve_us_median", chain["pybullet_solve_us_median"]),
+            ("pybullet_error_median_m", chain["pybullet_error_median_m"]),
+            ("pybullet_error_max_m", chain["pybullet_error_max_m"]),
+            ("pybullet_100_solve_us_median", chain["pybullet_100_solve_us_median"]),
+            ("pybullet_100_error_max_m", chain["pybullet_100_error_max_m"]),
+            ("pybullet_ball_solve_us_median", chain["pybullet_ball_solve_us_median"]),
+            ("pybullet_ball_error_max_m", chain["pybullet_ball_error_max_m"])]
     for name, v in rows:
         print(f"{name:<40}{'n/a' if v is None else f'{v:14.4g}':>14}")
+    print("chain: ours is 6 ball joints (18 degrees of freedom); ikpy_* and pybullet_* run 6 revolute joints "
+          "(6 DoF),\n       ikpy_ball_* and pybullet_ball_* the same 18 DoF (3 revolute joints per ball joint); "
+          "pybullet_* at its default 20 iterations, pybullet_100_* at 100")
     print("stage profile (us, each stage alone):")
     for k, v in stages.items():
         print(f"  {k:<26}{v:14.3f}")

@@ -6,6 +6,8 @@ Prints a table and ends with one JSON line: bodies, channels, single_ms (median 
 one 25-body humanoid playing the 12-channel ``perform`` animation), crowd_size,
 crowd_ms_per_character (median crowd tick / crowd size; big crowds sample and solve on
 all cores), crowd_serial_ms_per_character (the same crowd kept on one thread),
+crowd_busy_core_ms_per_character (the crowd free to use all cores while a second process
+keeps one busy: it must not exceed the serial figure),
 mixed_crowd_ms_per_character (``--crowd`` characters of eight library creatures, varied
 animations, half of them walking, one thread), mixed_walking_ms_per_character (the
 same, all walking), crowd_vs_alone_max_m (largest pose difference between three crowd members and the same
@@ -41,6 +43,10 @@ from engine import runtime as R  # noqa: E402
 from engine.anim import load_animation  # noqa: E402
 
 DT = 1 / 60
+#: The clock of the per-frame figures: wall time (default), or this process's CPU time
+#: (``--cpu``: on a machine shared with other work, what a frame costs the core it runs on;
+#: only meaningful for the one-thread figures).
+CLOCK = [time.perf_counter]
 FIRST_TICK = """
 import time, sys
 t0 = time.perf_counter()
@@ -100,23 +106,77 @@ def scaling_creatures() -> list:
     return out
 
 
+STAGE_NAMES = ("prev_pose", "player", "sample_specialize", "blend", "gait_stand", "ik", "jiggle_output")
+
+
 def timed_tick(ch: R.Character, times: dict[str, list[float]]) -> None:
-    """One tick, stage by stage, as ``Character.tick`` runs them."""
-    pc = time.perf_counter
+    """One tick, stage by stage, as ``Character.tick`` runs them (every call it makes, so
+    the stages add up to the tick)."""
+    pc = CLOCK[0]
+    s, r = ch._stack, ch._row
     t0 = pc()
-    ch.player.advance(DT)
+    np.copyto(ch._prev_world_pos, ch.world_positions)
+    np.copyto(ch._prev_world_rot, ch.world_rotations)
+    s.last_dt = DT
     t1 = pc()
-    R._sample_character(ch)
+    ch.player.advance(DT)
     t2 = pc()
-    R._blend_stack(ch._stack, ch.player)
+    R._sample_character(ch)
     t3 = pc()
-    R._solve_character(ch)
+    R._blend_stack(s, ch.player)
     t4 = pc()
-    R._output_stack(ch._stack, ch.jiggle_rig, DT, True)
+    if ch.gait is not None:
+        R._gait_character(ch, DT)
+    else:
+        R._stand_rows(s, R._row(r))     # standing: the feet the clips leave free held on the ground
     t5 = pc()
-    for name, a, b in (("player", t0, t1), ("sample_specialize", t1, t2), ("blend", t2, t3), ("ik", t3, t4),
-                       ("jiggle_output", t4, t5)):
+    R._solve_character(ch)
+    if ch.gait is not None:
+        ch.gait.observe(s.char_pos[r], s.char_rot[r])
+    t6 = pc()
+    R._output_stack(s, ch.jiggle_rig, DT, True)
+    t7 = pc()
+    ch._frame += 1
+    for name, a, b in zip(STAGE_NAMES, (t0, t1, t2, t3, t4, t5, t6), (t1, t2, t3, t4, t5, t6, t7), strict=True):
         times[name].append((b - a) * 1e3)
+
+
+GROUP_STAGES = ("prev_pose", "player", "sample_specialize", "blend", "gait", "stand", "ik", "observe",
+                "jiggle_output")
+
+
+def timed_group_tick(g, times: dict[str, list[float]]) -> None:
+    """One tick of a crowd group (``engine.runtime._Group.tick``), stage by stage."""
+    pc = CLOCK[0]
+    s = g.stack
+    ref = g.members[0]
+    t0 = pc()
+    np.copyto(s.prev_world_pos, s.world_pos)
+    np.copyto(s.prev_world_rot, s.world_rot)
+    s.last_dt = DT
+    t1 = pc()
+    g._player(DT)
+    t2 = pc()
+    g._sample()
+    t3 = pc()
+    R._blend_stack(s, ref.player)
+    t4 = pc()
+    gait = g._gait_batch()
+    if gait is not None:
+        gait.step(DT, gait.stack, gait.rows, gait.crows, R._gait_args(s), gait.call)
+    t5 = pc()
+    R._stand_rows(s, s.rows)
+    t6 = pc()
+    g._solve(True)
+    t7 = pc()
+    if gait is not None:
+        gait.observe.call()
+    t8 = pc()
+    R._output_stack(s, ref.jiggle_rig, DT, True)
+    t9 = pc()
+    ts = (t0, t1, t2, t3, t4, t5, t6, t7, t8, t9)
+    for k, name in enumerate(GROUP_STAGES):
+        times[name][-1] += (ts[k + 1] - ts[k]) * 1e3
 
 
 def single(creature, anim, frames: int) -> tuple[float, dict[str, float]]:
@@ -126,10 +186,10 @@ def single(creature, anim, frames: int) -> tuple[float, dict[str, float]]:
         ch.tick(DT)
     ticks = []
     for _ in range(frames):
-        t = time.perf_counter()
+        t = CLOCK[0]()
         ch.tick(DT)
-        ticks.append(time.perf_counter() - t)
-    stages: dict[str, list[float]] = {k: [] for k in ("player", "sample_specialize", "blend", "ik", "jiggle_output")}
+        ticks.append(CLOCK[0]() - t)
+    stages: dict[str, list[float]] = {k: [] for k in STAGE_NAMES}
     for _ in range(frames):
         timed_tick(ch, stages)
     return float(np.median(ticks) * 1e3), {k: float(np.median(v)) for k, v in stages.items()}
@@ -149,25 +209,37 @@ def crowd(creature, anim, n: int, frames: int) -> tuple[float, float]:
     alone = [make(k) for k in range(3)]
     group = engine.Crowd(chars)
     ticks = []
-    for _ in range(5 + frames):
-        t = time.perf_counter()
+    warm = 5 + 2 * R._ThreadChoice.PROBE     # and the frames that choose serial or parallel
+    for _ in range(warm + frames):
+        t = CLOCK[0]()
         group.tick(DT)
-        ticks.append(time.perf_counter() - t)
+        ticks.append(CLOCK[0]() - t)
         for a in alone:
             a.tick(DT)
     diff = max(float(np.abs(a.world_positions - c.world_positions).max())
                for a, c in zip(alone, chars[:3], strict=True))
-    return float(np.median(ticks[5:]) * 1e3 / n), diff
+    return float(np.median(ticks[warm:]) * 1e3 / n), diff
+
+
+def busy_core_crowd(creature, anim, n: int, frames: int) -> float:
+    """``crowd`` (all threads allowed) while a second process keeps a core busy, as a
+    game's other threads do: the crowd must then choose serial (``_ThreadChoice``)."""
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.2)
+        return crowd(creature, anim, n, frames)[0]
+    finally:
+        busy.kill()
+        busy.wait()
 
 
 MIXED = ("humanoid", "dog", "spider", "snake", "hexapod", "trex", "octopus", "centipede")
 
 
-def mixed_crowd(n: int, walking: float, frames: int) -> float:
-    """Median ms per character of a crowd tick on one thread, as a game has it: ``n``
-    characters of the eight ``MIXED`` library creatures, each playing one of the library
-    animations its body can play (variants and speeds varied, targets set), and the
-    share ``walking`` of them locomoting (gait) with it."""
+def mixed_characters(n: int, walking: float) -> list:
+    """``n`` characters of the eight ``MIXED`` library creatures, each playing one of the
+    library animations its body can play (variants and speeds varied, targets set), and
+    the share ``walking`` of them locomoting (gait) with it."""
     from engine.anim.binding import branch_failures
 
     anims = [load_animation(p) for p in sorted(glob.glob(os.path.join(ROOT, "animations", "*.yaml")))]
@@ -186,18 +258,35 @@ def mixed_crowd(n: int, walking: float, frames: int) -> float:
         if (k * 0.618034) % 1.0 < walking:
             ch.locomote(velocity=(0.5 * h, 0.0), turn_rate=0.2 * ((k % 5) - 2))
         chars.append(ch)
-    group = engine.Crowd(chars)
+    return chars
+
+
+def mixed_crowd(n: int, walking: float, frames: int, stages: bool = False):
+    """Median ms per character of a crowd tick on one thread, as a game has it
+    (``mixed_characters``); with ``stages``, also the median ms per character of each
+    stage (``GROUP_STAGES``, summed over the creature groups; they add up to the tick)."""
+    group = engine.Crowd(mixed_characters(n, walking))
     parallel_min = R.PARALLEL_MIN_ROWS
     R.PARALLEL_MIN_ROWS = 1 << 30   # one thread
     try:
         ticks = []
         for _ in range(5 + frames):
-            t = time.perf_counter()
+            t = CLOCK[0]()
             group.tick(DT)
-            ticks.append(time.perf_counter() - t)
+            ticks.append(CLOCK[0]() - t)
+        per_stage: dict[str, list[float]] = {k: [] for k in GROUP_STAGES}
+        if stages:
+            for _ in range(frames):
+                for v in per_stage.values():
+                    v.append(0.0)
+                for g in group._groups:
+                    timed_group_tick(g, per_stage)
     finally:
         R.PARALLEL_MIN_ROWS = parallel_min
-    return float(np.median(ticks[5:]) * 1e3 / n)
+    ms = float(np.median(ticks[5:]) * 1e3 / n)
+    if not stages:
+        return ms
+    return ms, {k: float(np.median(v)) / n for k, v in per_stage.items()}
 
 
 def main() -> None:
@@ -206,7 +295,10 @@ def main() -> None:
     ap.add_argument("--crowd", type=int, default=1000)
     ap.add_argument("--crowd-frames", type=int, default=20)
     ap.add_argument("--quick", action="store_true", help="fewer frames, no start-up measurement")
+    ap.add_argument("--cpu", action="store_true", help="time frames by this process's CPU time, not wall time")
     args = ap.parse_args()
+    if args.cpu:
+        CLOCK[0] = time.process_time
     if args.quick:
         args.frames, args.crowd_frames = 300, 5
 
@@ -221,7 +313,8 @@ def main() -> None:
     R.PARALLEL_MIN_ROWS = 1 << 30   # the same crowd on one thread
     crowd_serial_ms = crowd(human, anim, args.crowd, args.crowd_frames)[0]
     R.PARALLEL_MIN_ROWS = parallel_min
-    mixed_ms = mixed_crowd(args.crowd, 0.5, args.crowd_frames)
+    busy_ms = busy_core_crowd(human, anim, args.crowd, args.crowd_frames)
+    mixed_ms, mixed_stages = mixed_crowd(args.crowd, 0.5, args.crowd_frames, stages=True)
     mixed_walk_ms = mixed_crowd(args.crowd, 1.0, args.crowd_frames)
     cold = warm = None
     if not args.quick:
@@ -236,12 +329,19 @@ def main() -> None:
     print(f"{'single tick, ms (median)':<34}{single_ms:>12.4f}")
     for k, v in stages.items():
         print(f"{'  stage ' + k + ', ms':<34}{v:>12.4f}")
+    print(f"{'  sum of the stages, ms':<34}{sum(stages.values()):>12.4f}")
     for k, v in scaling.items():
         print(f"{'  ' + k + ' bodies, ms':<34}{v:>12.4f}")
     print(f"{'crowd of ' + str(args.crowd) + ', ms per character':<34}{crowd_ms:>12.4f}")
     print(f"{'  on one thread, ms per character':<34}{crowd_serial_ms:>12.4f}")
+    print(f"{'  other core busy, ms per char':<34}{busy_ms:>12.4f}")
+    print(f"{'  busy / serial':<34}{busy_ms / crowd_serial_ms:>12.2f}")
     print(f"{'  crowd vs alone, max m':<34}{crowd_diff:>12.2e}")
     print(f"{'mixed crowd, half walking, ms/ch':<34}{mixed_ms:>12.4f}")
+    for k, v in mixed_stages.items():
+        print(f"{'  stage ' + k + ', ms/ch':<34}{v:>12.5f}")
+    print(f"{'  sum of the stages, ms/ch':<34}{sum(mixed_stages.values()):>12.5f}")
+    print(f"{'  mixed / uniform (one thread)':<34}{mixed_ms / crowd_serial_ms:>12.2f}")
     print(f"{'mixed crowd, all walking, ms/ch':<34}{mixed_walk_ms:>12.4f}")
     print(f"{'  threads (' + numba.threading_layer() + ')':<34}{numba.get_num_threads():>12}")
     if cold is not None:
@@ -257,8 +357,11 @@ def main() -> None:
     print(json.dumps({"bodies": human.nbody, "channels": anim.nchannel, "single_ms": round(single_ms, 5),
                       "crowd_size": args.crowd, "crowd_ms_per_character": round(crowd_ms, 5),
                       "crowd_serial_ms_per_character": round(crowd_serial_ms, 5),
+                      "crowd_busy_core_ms_per_character": round(busy_ms, 5),
                       "mixed_crowd_ms_per_character": round(mixed_ms, 5),
                       "mixed_walking_ms_per_character": round(mixed_walk_ms, 5),
+                      "mixed_stages_ms_per_character": {k: round(v, 6) for k, v in mixed_stages.items()},
+                      "mixed_vs_uniform": round(mixed_ms / crowd_serial_ms, 2),
                       "crowd_vs_alone_max_m": crowd_diff, "threads": numba.get_num_threads(),
                       "threading_layer": numba.threading_layer(),
                       "stages": {k: round(v, 5) for k, v in stages.items()},

@@ -29,6 +29,7 @@ new combination of playing clips (binding and IK plans are built once and cached
 from __future__ import annotations
 
 import math
+import time
 import weakref
 from dataclasses import dataclass
 
@@ -41,9 +42,11 @@ from engine._fastcall import BoundKernel
 from engine.anim.animation import Animation
 from engine.anim.binding import Binding, BoundVariant, bind
 from engine.anim.evaluate import default_target, has_body_targets, make_scratch, make_scratches
+from engine.anim.player import CHANGES as _PLAYER_CHANGES
 from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, advance_arrays
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
+from engine.gait import _step_kernels as SK
 from engine.ik.plan import DEFAULT_PARAMS, IKParams, plan_for
 from engine.jiggle.rig import JiggleRig
 from engine.mathx import quat_mul_batch_into, quat_rotate_batch_into, quat_rotate_inv_into
@@ -152,6 +155,7 @@ class _Stack:
         self.stand = np.full(n, creature.nleg > 0, np.bool_)
         self.stand_call = None
         self.ground_call = None
+        self.gait_args = None
         self.rows = np.arange(n, dtype=np.int64)
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
@@ -469,12 +473,45 @@ def _blend_stack(s: _Stack, player: Player) -> None:
     s.blend_call.call()
 
 
+def _gait_args(s: _Stack) -> tuple:
+    """The character arrays the gait stage reads and writes (``engine.gait.gait_stage``);
+    ``ground``: the terrain under the character, for the passive bodies."""
+    if s.gait_args is None:
+        s.gait_args = (s.place_pos, s.place_rot, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw,
+                       s.goal_rw, s.ground, s.ground_set)
+    return s.gait_args
+
+
 def _gait_character(char: Character, dt: float) -> None:
     s, r = char._stack, char._row
-    char.gait.step(dt, s.place_pos[r], s.place_rot[r], s.root_pos[r], s.root_rot[r], s.goal_pos[r], s.goal_rot[r],
-                   s.goal_pw[r], s.goal_rw[r])
-    s.ground[r] = char.gait.ground_plane          # the terrain under the character, for Jiggles
-    s.ground_set[r] = True
+    g = char.gait
+    hit = g._calls.get("char")
+    if hit is None or hit[0] is not s or hit[1] is not g._gs or hit[3] is not _row(r):
+        gs = g._gs
+        rows, crows = _row(g._gr), _row(r)
+        call = BoundKernel(SK.gait_rows, (float(dt), 0, rows, crows) + _gait_args(s) + gs.state_args + gs.rig_args,
+                           slots=(0,))
+        hit = g._calls["char"] = (s, gs, rows, crows, call)
+    from engine.gait.controller import gait_stage
+
+    gait_stage(dt, hit[1], hit[2], hit[3], _gait_args(s), hit[4])
+
+
+class _GaitBatch:
+    """The walking members of a crowd group: their controllers in one gait stack, stepped
+    and observed by one kernel call each (``engine.gait._step_kernels``)."""
+
+    def __init__(self, s: _Stack, walkers: list[Character]) -> None:
+        from engine.gait.controller import GaitStack, gait_stage
+
+        self.step = gait_stage
+        self.stack = GaitStack([m.gait for m in walkers], private=False)
+        self.rows = np.arange(len(walkers), dtype=np.int64)
+        self.crows = np.array([m._row for m in walkers], np.int64)
+        gs = self.stack
+        self.call = BoundKernel(SK.gait_rows, (1.0 / 60.0, 0, self.rows, self.crows) + _gait_args(s) + gs.state_args
+                                + gs.rig_args, slots=(0,))
+        self.observe = BoundKernel(SK.observe_rows, (self.rows, self.crows, s.char_pos, s.char_rot) + gs.observe_args)
 
 
 def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
@@ -725,8 +762,20 @@ class _Group:
         self._plan_list: list = []
         self._events_version = -1
         self._events = np.zeros(0, np.int64)
+        self._gait_epoch = -1
+        self._gait: _GaitBatch | None = None
+        self._events_seen = self._pairs_seen = self._plans_seen = (-1, -1)
+        #: Whether this frame runs the big stages on all cores (``_ThreadChoice``).
+        self._parallel = True
+        self._threads = _ThreadChoice()
 
     def tick(self, dt: float) -> None:
+        self._parallel = self._threads.choose()
+        t0 = time.perf_counter()
+        self._tick(dt)
+        self._threads.record(self._parallel, time.perf_counter() - t0)
+
+    def _tick(self, dt: float) -> None:
         s = self.stack
         ref = self.members[0]
         st = ref.stages
@@ -735,33 +784,24 @@ class _Group:
         s.last_dt = dt
         # 1. player: every clip slot of every member in one kernel
         if st.player:
-            advance_arrays(s.player, dt)
-            # Python only for members where something happened or whose clips have events
-            # (no loop over a thousand members per frame).
-            rows = np.flatnonzero(s.player.flags.any(axis=1))
-            event_rows = self._event_rows()
-            if event_rows.shape[0]:
-                rows = np.union1d(rows, event_rows)
-            for row in rows:
-                self.members[row].player.after_advance()
+            self._player(dt)
         # 2-3. sample + specialize: one kernel per bound variant over all pairs playing it
         if st.sample:
             self._sample()
         # 4. blend: one kernel over the stack
         if st.blend:
             _blend_stack(s, ref.player)
-        # 5. gait: per member that locomotes (the controllers keep per-character state);
-        #    the others stand, one kernel over the stack
+        # 5. gait: the members that locomote in one kernel (their controllers' state in one
+        #    gait stack), the others stand, one kernel over the stack
+        gait = self._gait_batch()
         if st.gait:
-            for m in self.members:
-                if m.gait is not None:
-                    _gait_character(m, dt)
+            if gait is not None:
+                gait.step(dt, gait.stack, gait.rows, gait.crows, _gait_args(s), gait.call)
             _stand_rows(s, s.rows)
         # 6. IK: one kernel per IK plan over the members using it
         self._solve(st.ik)
-        for m in self.members:
-            if m.gait is not None:
-                m.gait.observe(s.char_pos[m._row], s.char_rot[m._row])
+        if gait is not None:
+            gait.observe.call()      # what the IK made of the feet's goals
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
@@ -770,17 +810,75 @@ class _Group:
             for m in [m for m in _REACTING if m._stack is s]:
                 m.response.tick(dt)
 
+    def _player(self, dt: float) -> None:
+        s = self.stack
+        advance_arrays(s.player, dt)
+        # Python only for members where something happened or where a clip's key may fire
+        # (no loop over a thousand members per frame).
+        rows = np.flatnonzero(s.player.flags.any(axis=1))
+        event_rows = self._event_rows()
+        if event_rows.shape[0]:
+            rows = np.union1d(rows, self._event_hits(event_rows))
+        for row in rows:
+            self.members[row].player.after_advance()
+
+    def _gait_batch(self) -> _GaitBatch | None:
+        """The walking members' batch, re-gathered when a controller was made or moved."""
+        if self._gait_epoch != SK.EPOCH[0]:
+            walkers = [m for m in self.members if m.gait is not None]
+            self._gait = _GaitBatch(self.stack, walkers) if walkers else None
+            self._gait_epoch = SK.EPOCH[0]
+        return self._gait
+
+    def _changes(self) -> tuple[int, int]:
+        """What the version sums below depend on: nothing changed since the last frame if
+        no player changed its clips and no gait controller was made (then the sums over a
+        thousand members are skipped)."""
+        return _PLAYER_CHANGES[0], SK.EPOCH[0]
+
     def _event_rows(self) -> np.ndarray:
         """Rows of the members playing clips with key events (rebuilt when clips change)."""
+        if self._changes() == self._events_seen:
+            return self._events
+        self._events_seen = self._changes()
         version = sum(m.player.version for m in self.members)
         if version != self._events_version:
             self._events = np.array([row for row, m in enumerate(self.members) if m.player.has_event_clips], np.int64)
             self._events_version = version
+            # the key times of each slot's clip (NaN-padded) and the rows whose new clips
+            # fire an event at their start time on their first frame
+            times = [[sorted({e.t for ch in h.animation.channels for e in ch.events}) if h is not None else []
+                      for h in self.members[row].player.handles] for row in self._events]
+            width = max([len(t) for slots in times for t in slots], default=0)
+            self._event_times = np.full((len(times), self.stack.player.time.shape[1], max(width, 1)), np.nan)
+            for i, slots in enumerate(times):
+                for k, t in enumerate(slots):
+                    self._event_times[i, k, :len(t)] = t
+            self._event_first = np.array([any(h is not None and getattr(h, "_events_from_start", False)
+                                              for h in self.members[row].player.handles) for row in self._events],
+                                         np.bool_)
         return self._events
+
+    def _event_hits(self, rows: np.ndarray) -> np.ndarray:
+        """The rows of ``rows`` (``_event_rows``) where a key may fire this frame: a key time
+        within [prev, now] of a slot (both ends in, so never one too few; the player then
+        decides exactly), or a clip's first frame; wraps and ends are flagged anyway."""
+        a = self.stack.player
+        t0 = a.prev_time[rows]
+        t1 = a.time[rows]
+        lo = np.minimum(t0, t1)[:, :, None]
+        hi = np.maximum(t0, t1)[:, :, None]
+        tab = self._event_times
+        hit = ((tab >= lo) & (tab <= hi)).any(axis=(1, 2)) | self._event_first
+        self._event_first[:] = False
+        return rows[hit]
 
     def _pair_groups(self) -> list:
         """(buffer, first clip, pair count, members with external targets) per bound
         variant playing in the group, rebuilt only when a member's clips changed."""
+        if self._changes() == self._pairs_seen:
+            return self._pair_list
+        self._pairs_seen = self._changes()
         version = sum(m.player.version for m in self.members)
         if version == self._pairs_version:
             return self._pair_list
@@ -809,34 +907,39 @@ class _Group:
                 if buf.scratches is None or buf.scratches.work33.shape[0] != chunks:
                     buf.scratches = make_scratches(clip0.animation, clip0.bound, chunks)
                 scratches = buf.scratches
-            # Views made once per change, not per frame.
-            out.append((clip0, buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k], external,
-                        scratches))
+            # Views and kernel calls bound to them (engine._fastcall) made once per change,
+            # not per frame.
+            pair_char, pair_slot, times, tables = buf.pair_char[:k], buf.pair_slot[:k], buf.times[:k], buf.tables[:k]
+            s, c, bv = self.stack, self.creature, clip0.bound
+            gather = BoundKernel(RK.gather_times, (s.player.time, pair_char, pair_slot, times))
+            args = [clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times, pair_char,
+                    pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw,
+                    clip0.n_ext, c.body_parent, c.body_local_pos, c.body_local_rot, clip0.body_targets]
+            serial = BoundKernel(RK.goals_pairs, tuple(args))
+            parallel = None
+            if scratches is not None:
+                args[10] = scratches
+                parallel = BoundKernel(RK.goals_pairs_parallel, tuple(args))
+            out.append((gather, serial, parallel, tables, external))
         self._pair_list, self._pairs_version = out, version
         return out
 
     def _sample(self) -> None:
-        s = self.stack
-        c = self.creature
-        for clip0, pair_char, pair_slot, times, tables, external, scratches in self._pair_groups():
-            RK.gather_times(s.player.time, pair_char, pair_slot, times)
+        for gather, serial, parallel, tables, external in self._pair_groups():
+            gather.call()
             for i, clip, m in external:
                 _fill_external(m, clip, tables[i])
-            bv = clip0.bound
-            if scratches is None:
-                RK.goals_pairs(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on, tables, times,
-                               pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot, clip0.scratch, s.sg_pos,
-                               s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext, c.body_parent, c.body_local_pos,
-                               c.body_local_rot, clip0.body_targets)
-            else:
+            if parallel is not None and self._parallel:
                 with numba.parallel_chunksize(1):   # chunks handed out as threads free up
-                    RK.goals_pairs_parallel(clip0.animation.curves, bv.slots, bv.slot_pos_on, bv.slot_rot_on,
-                                            tables, times, pair_char, pair_slot, c.body_rest_pos, c.body_rest_rot,
-                                            scratches, s.sg_pos, s.sg_rot, s.sg_pw, s.sg_rw, clip0.n_ext,
-                                            c.body_parent, c.body_local_pos, c.body_local_rot, clip0.body_targets)
+                    parallel.call()
+            else:
+                serial.call()
 
     def _plan_groups(self) -> list:
         """(plan, scratch, row indices) per IK plan in use, rebuilt only on change."""
+        if self._changes() == self._plans_seen:
+            return self._plan_list
+        self._plans_seen = self._changes()
         version = sum(m.player.version + (0 if m.gait is None else m.gait.version) for m in self.members)
         if version == self._plans_version:
             return self._plan_list
@@ -864,7 +967,7 @@ class _Group:
         for plan, scratch, idx, scratches in self._plan_groups():
             if ik_on:
                 b = plan.blobs
-                if scratches is None:
+                if scratches is None or not self._parallel:
                     nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos,
                                             s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch,
                                             s.ik_bad)
@@ -897,6 +1000,51 @@ def _parallel_chunks(nrow: int) -> int:
     if nrow < PARALLEL_MIN_ROWS or numba.get_num_threads() < 2:
         return 1
     return max(1, min(nrow, 8 * numba.get_num_threads()))
+
+
+class _ThreadChoice:
+    """Serial or parallel, by measuring: a crowd group's big stages run on all cores only
+    while that makes its frames faster. The first frames alternate the two (``PROBE``
+    frames each) and the faster median wins; the choice is measured again every
+    ``REPROBE`` frames (the load of the machine changes), and a parallel frame that takes
+    more than ``LATE`` times the serial median (a thread descheduled: a core busy
+    elsewhere) falls back to serial at once. Both paths give the same poses, bit for bit
+    (the same kernels on the same rows), so switching never shows."""
+
+    PROBE = 4
+    REPROBE = 600
+    LATE = 1.5
+
+    __slots__ = ("serial", "parallel", "mode", "frame")
+
+    def __init__(self) -> None:
+        self.serial: list[float] = []
+        self.parallel: list[float] = []
+        self.mode: bool | None = None       # None while probing
+        self.frame = 0
+
+    def choose(self) -> bool:
+        if numba.get_num_threads() < 2:
+            return False
+        self.frame += 1
+        if self.mode is not None and self.frame % self.REPROBE == 0:
+            self.mode = None
+            self.serial.clear()
+            self.parallel.clear()
+        if self.mode is None:
+            return len(self.parallel) <= len(self.serial)     # alternate, parallel first
+        return self.mode
+
+    def record(self, parallel: bool, seconds: float) -> None:
+        if numba.get_num_threads() < 2:
+            return
+        if self.mode is None:
+            (self.parallel if parallel else self.serial).append(seconds)
+            if len(self.serial) >= self.PROBE and len(self.parallel) >= self.PROBE:
+                # the first frame of each may still fill caches: compare the rest
+                self.mode = bool(np.median(self.parallel[1:]) < np.median(self.serial[1:]))
+        elif parallel and self.serial and seconds > self.LATE * float(np.median(self.serial[1:] or self.serial)):
+            self.mode = False
 
 
 class _PairBuffer:

@@ -59,7 +59,7 @@ def test_parallel_crowd_matches_members_alone(human, perform, wave):
             a.tick(DT)
     # The big plan group and the big variant groups really ran in parallel.
     assert any(sc is not None for _, _, _, sc in group._plan_groups())
-    assert any(p[-1] is not None for p in group._pair_groups())
+    assert any(p[2] is not None for p in group._pair_groups())     # a parallel sampling kernel
     for a, b in zip(alone, members, strict=True):
         assert np.all(np.isfinite(b.world_positions))
         assert np.allclose(a.world_positions, b.world_positions, atol=1e-12, rtol=0)
@@ -75,7 +75,7 @@ def test_small_crowds_stay_serial_and_match(human, perform, n):
             a.tick(DT)
     group = crowd._groups[0]
     assert all(sc is None for _, _, _, sc in group._plan_groups())
-    assert all(p[-1] is None for p in group._pair_groups())
+    assert all(p[2] is None for p in group._pair_groups())     # no parallel sampling kernel
     for a, b in zip(alone, members, strict=True):
         assert np.array_equal(a.world_positions, b.world_positions)
 
@@ -156,3 +156,42 @@ def test_a_member_far_down_a_big_crowd_can_be_ticked_alone(human, wave):
     members[69].tick(DT)            # alone, though it lives in row 69 of the crowd's stack
     alone[69].tick(DT)
     assert np.allclose(members[69].world_positions, alone[69].world_positions, atol=1e-12)
+
+
+def test_thread_choice_measures_and_falls_back(monkeypatch):
+    """The crowd runs its big stages on all cores only while that is faster: it probes
+    both, keeps the faster, and drops to serial on a late parallel frame."""
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    tc = R._ThreadChoice()
+    modes = []
+    for _ in range(2 * tc.PROBE):
+        p = tc.choose()
+        modes.append(p)
+        tc.record(p, 0.010 if p else 0.006)     # parallel slower: a busy core
+    assert modes.count(True) == modes.count(False) == tc.PROBE
+    assert tc.choose() is False
+    tc = R._ThreadChoice()
+    for _ in range(2 * tc.PROBE):
+        p = tc.choose()
+        tc.record(p, 0.004 if p else 0.008)
+    assert tc.choose() is True
+    tc.record(True, 0.020)                      # a late frame
+    assert tc.choose() is False
+    for _ in range(tc.REPROBE):
+        tc.choose()
+    assert tc.mode is None                      # measured again
+
+
+def test_serial_and_parallel_frames_give_the_same_poses(human, perform):
+    """Switching between the two paths never shows: both give the same poses."""
+    n = R.PARALLEL_MIN_ROWS + 9
+    runs = []
+    for force in (True, False):
+        alone, members, crowd = _pair(human, n, lambda k, ch: ch.play(perform, speed=0.9 + 0.02 * k))
+        group = crowd._groups[0]
+        group._threads.mode = force
+        for _ in range(12):
+            crowd.tick(DT)
+        runs.append([m.world_positions.copy() for m in members])
+    for a, b in zip(*runs, strict=True):
+        assert np.array_equal(a, b)

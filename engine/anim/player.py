@@ -117,6 +117,11 @@ def advance_arrays(a: PlayerArrays, dt: float) -> None:
                   a.fade_in_rate, a.fade_out_rate, a.stopping, a.layer, a.layer_weight, a.effective, a.flags)
 
 
+#: Bumped with every ``Player.version`` change (any player): a crowd skips its per-member
+#: version sums while it has not moved (``engine.runtime._Group``).
+CHANGES = [0]
+
+
 @dataclass
 class Player:
     """Clips playing on one character (see the module docstring)."""
@@ -263,6 +268,7 @@ class Player:
 
     def _changed(self) -> None:
         self.version += 1
+        CHANGES[0] += 1
         self.has_event_clips = any(h is not None and _has_events(h.animation) for h in self.handles)
 
     def _next_serial(self) -> int:

@@ -6,8 +6,10 @@ rational frequency ratios (``engine.gait.rig``), authored gait styles interpolat
 speed with procedural waves for 7+ feet (``engine.gait.style``, files in
 ``animations/gaits``), feet planted in world space during stance and carried along the
 style's flight path, hip motion and root motion, floating and inch-worm crawling for
-creatures without feet. The per-frame work is two numba kernels around one call of the
-game's terrain height function (``engine.gait._kernels``). ``PathFollower`` turns a
+creatures without feet. The per-frame work is one numba kernel for any number of
+characters (``engine.gait._step_kernels.gait_rows``, around ``engine.gait._kernels``;
+a crowd steps all its walking members of a creature in one call), with the game's terrain
+height function, when there is one, called from Python between its two halves. ``PathFollower`` turns a
 polyline into locomote commands; ``engine.validation.gait`` measures a gait on the runtime's
 output (``benchmarks/gait.py``).
 """

@@ -28,6 +28,7 @@ import numpy as np
 
 from engine.errors import MenagerieError
 from engine.gait import _kernels as K
+from engine.gait import _step_kernels as SK
 from engine.gait.rig import GaitRig, analyze
 from engine.gait.style import PATH_SAMPLES, GaitStyle, GaitStyleError, load_style
 from engine.model.creature import Creature
@@ -70,6 +71,133 @@ class GaitError(MenagerieError, ValueError):
     """Bad input to the gait controller (a terrain function, a style, a group index)."""
 
 
+class _Scalar:
+    """A scalar of the controller's state, kept in its row of the gait stack (``sv``) so
+    the stage kernel reads and writes it (``engine.gait._step_kernels``)."""
+
+    __slots__ = ("col", "kind")
+
+    def __init__(self, col: int, kind=float) -> None:
+        self.col = col
+        self.kind = kind
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return self
+        return self.kind(obj._sv[self.col])
+
+    def __set__(self, obj, value) -> None:
+        obj._sv[self.col] = value
+
+
+#: Style layers and speed-table rows a gait stack holds per group (more: a larger stack).
+STACK_LAYERS = 4
+STACK_ROWS = 8
+
+EPOCH = SK.EPOCH
+
+#: The per-frame arrays of a controller, in order, as the stage kernel takes them (each
+#: a row of a ``GaitStack`` array; ``_tab`` ... ``_sc_settle`` are its style constants).
+ROW_FIELDS = ("_sv", "_cmd_v", "velocity", "_prev_v", "_last_place", "group_phase", "_group_support", "group_rate",
+              "group_duty", "group_sweep", "group_park", "group_lift", "group_bob", "group_sway", "_crouch_want",
+              "path", "step_trigger", "step_duty_scale", "step_lift_scale", "step_state", "step_progress",
+              "step_prev_u", "step_parked", "step_lift_u", "step_done", "foot_world", "foot_lift", "foot_yaw",
+              "foot_lift_yaw", "foot_target", "foot_target_yaw", "_query", "_heights", "_place3", "_vel3",
+              "foot_slope", "_foot_tilt", "_slope_w", "ground_plane", "_root_dq", "_root_dpos", "_bob", "_row",
+              "_tilt", "_lean", "_cal_crouch", "_cal_sweep", "group_stretch", "foot_bias", "_prev_root_pos",
+              "_prev_root_rot", "_goal_written", "_tab", "_tab_n", "_tab_w", "_tab_nl", "_sc_cap", "_sc_top",
+              "_sc_ptop", "_sc_sa", "_sc_settle")
+_STACK_FIELDS = ROW_FIELDS + ("_cal_bias", "_observe_limit")
+
+
+class GaitStack:
+    """The per-frame state of ``n`` gait controllers of one creature in shared arrays
+    (leading axis n): each controller's arrays are views of its row, so one kernel call
+    steps them all (``engine.gait._step_kernels.gait_rows``)."""
+
+    def __init__(self, controllers: list, *, private: bool = True) -> None:
+        first = controllers[0]
+        self.controllers = list(controllers)
+        self.rig = first.rig
+        n = len(controllers)
+        nl = max(STACK_LAYERS, max(c._need_layers() for c in controllers))
+        nt = max(STACK_ROWS, max(c._need_rows() for c in controllers))
+        for name in _STACK_FIELDS:
+            a = getattr(first, name)
+            shape = a.shape
+            if name == "_tab":
+                shape = (shape[0], nl, nt, 8)
+            elif name in ("_tab_n", "_tab_w"):
+                shape = (shape[0], nl)
+            setattr(self, name, np.zeros((n,) + shape, a.dtype))
+        for row, c in enumerate(controllers):
+            for name in _STACK_FIELDS:
+                src = getattr(c, name)
+                dst = getattr(self, name)[row]
+                dst[tuple(slice(0, k) for k in src.shape)] = src
+            c._bind(self, row)
+        r = self.rig
+        self.rig_args = (_MODES[r.mode], float(r.float_height), r.group_length, r.group_radius, r.group_ratio,
+                         _group_first(r), r.step_group, r.step_side, r.step_foot_adr, r.step_foot_num, r.foot_body,
+                         r.foot_neutral, r.foot_offset, r.foot_rest_rot, r.foot_hip, r.foot_jointrel, r.foot_chain,
+                         r.foot_rigid, r.foot_knee, r.foot_contact)
+        self.state_args = tuple(getattr(self, name) for name in ROW_FIELDS)
+        self.observe_args = (self._sv, self._goal_written, self.step_state, self.foot_bias, self._cal_bias,
+                             self._observe_limit, r.foot_body, r.foot_stepper, r.foot_rest_rot, r.foot_contact,
+                             OBSERVE_GAIN, OBSERVE_FLIGHT_GAIN)
+        if private:
+            EPOCH[0] += 1     # a controller left the stack it was in (or is new)
+
+
+_MODES = {"walk": SK.MODE_WALK, "crawl": SK.MODE_CRAWL, "float": SK.MODE_FLOAT}
+
+
+def _group_first(r: GaitRig) -> np.ndarray:
+    """Per leg group, its front stepper (least rank; the first of equals)."""
+    out = np.zeros(max(r.ngroup, 1), np.int64)
+    for g in range(r.ngroup):
+        steps = [int(k) for k in np.flatnonzero(r.step_group == g)]
+        if steps:
+            out[g] = min(steps, key=lambda k: r.step_rank[k])
+    return out
+
+
+def gait_stage(dt: float, stack: GaitStack, rows: np.ndarray, crows: np.ndarray, char_args: tuple,
+               call=None) -> None:
+    """The gait step of the controllers in ``stack`` rows ``rows`` (their characters in
+    rows ``crows`` of ``char_args``: place_pos, place_rot, root_pos, root_rot, goal_pos,
+    goal_rot, goal_pw, goal_rw, ground, ground_set). ``call``: the same kernel call bound
+    once (``engine._fastcall.BoundKernel``, dt in its first slot)."""
+    if call is not None:
+        nflag = call.call(float(dt))
+    else:
+        nflag = SK.gait_rows(float(dt), 0, rows, crows, *char_args, *stack.state_args, *stack.rig_args)
+    if nflag:
+        _finish_rows(dt, stack, rows, crows, char_args)
+
+
+def _finish_rows(dt: float, stack: GaitStack, rows: np.ndarray, crows: np.ndarray, char_args: tuple) -> None:
+    """The rows the kernel left to Python: planting afresh (then the step), and terrain
+    given by Python functions (sampled here, then steps 4-6)."""
+    sv = stack._sv
+    place_pos, place_rot, root_pos, root_rot = char_args[:4]
+    for i in np.flatnonzero(sv[rows, SK.FLAG] != 0.0):
+        r, c = int(rows[i]), int(crows[i])
+        ctrl = stack.controllers[r]
+        one, cone = np.array([r], np.int64), np.array([c], np.int64)
+        if sv[r, SK.FLAG] == SK.FLAG_START:
+            sv[r, SK.FLAG] = 0.0
+            yaw_now = 2.0 * math.atan2(float(place_rot[c, 3]), float(place_rot[c, 0]))
+            ctrl._start(place_pos[c], yaw_now)
+            ctrl._prev_root_pos[:] = root_pos[c]
+            ctrl._prev_root_pos[2] -= ctrl._crouch
+            ctrl._prev_root_rot[:] = root_rot[c]
+            SK.gait_rows(float(dt), 0, one, cone, *char_args, *stack.state_args, *stack.rig_args)
+        if sv[r, SK.FLAG] == SK.FLAG_TERRAIN:
+            ctrl._terrain(place_pos[c])
+            SK.gait_rows(float(dt), 1, one, cone, *char_args, *stack.state_args, *stack.rig_args)
+
+
 class GaitController:
     """Locomotion for one character (see the module docstring).
 
@@ -80,9 +208,32 @@ class GaitController:
     ``step_state`` (0 stance, 1 flight, 3 owned by an animation per stepper).
     """
 
+    # scalar state, in the gait stack's ``sv`` row (see ``_Scalar``)
+    _yaw = _Scalar(SK.YAW)                    # unwrapped heading we integrate
+    turn_rate = _Scalar(SK.TURN)
+    _crouch = _Scalar(SK.CROUCH)
+    _time = _Scalar(SK.TIME)
+    _idle = _Scalar(SK.IDLE, bool)
+    _started = _Scalar(SK.STARTED, bool)
+    _written = _Scalar(SK.WRITTEN, bool)
+    immobile = _Scalar(SK.IMMOBILE, bool)
+    speed_limit = _Scalar(SK.SPEED_LIMIT)
+    _cmd_w = _Scalar(SK.CMD_W)
+    _L = _Scalar(SK.LEN)
+    _replant = _Scalar(SK.REPLANT)
+    _radius = _Scalar(SK.RADIUS)
+    _slope_e = _Scalar(SK.SLOPE_E)
+    min_crouch = _Scalar(SK.MIN_CROUCH)
+    max_crouch = _Scalar(SK.MAX_CROUCH)
+    bob_scale = _Scalar(SK.BOB_SCALE)
+
     def __init__(self, creature: Creature, style: str | GaitStyle = "walk") -> None:
         if not isinstance(creature, Creature):
             raise TypeError(f"GaitController needs a Creature, got {type(creature).__name__}")
+        self._sv = np.zeros(SK.NSCALAR)
+        self._gs = None
+        self._gr = 0
+        self._calls: dict = {}
         self.creature = creature
         self.rig: GaitRig = analyze(creature)
         r = self.rig
@@ -95,7 +246,6 @@ class GaitController:
         self.velocity = np.zeros(2)
         self.turn_rate = 0.0
         self.speed_limit = math.inf
-        self._yaw = None                     # unwrapped heading we integrate
         self._last_place = np.zeros(3)
         self._time = 0.0
         # terrain
@@ -190,9 +340,66 @@ class GaitController:
         self._rebuild_patterns()
         if r.nstep:
             self._calibrate()
-        self._cache = None                   # the calibration moved the sweeps and crouches
         self._cal_bias = self.foot_bias.copy()
         self._observe_limit = np.full(r.nfoot, OBSERVE_LIMIT)
+        # style constants the stage kernel reads (``_fill_tables``, ``_style_cache``)
+        self._tab = np.zeros((G, self._need_layers(), self._need_rows(), 8))
+        self._tab_n = np.zeros((G, self._tab.shape[1]), np.int64)
+        self._tab_w = np.zeros((G, self._tab.shape[1]))
+        self._tab_nl = np.zeros(G, np.int64)
+        self._sc_cap = np.zeros(G)
+        self._sc_top = np.zeros(G)
+        self._sc_ptop = np.zeros((G, 8))
+        self._sc_sa = np.zeros((G, 2))
+        self._sc_settle = np.zeros(G)
+        # the ground arrays of a standalone ``step`` call (the runtime passes its own)
+        self._ground_out = np.zeros((1, 4))
+        self._ground_set_out = np.zeros(1, np.bool_)
+        GaitStack([self])                    # this controller's own stack of one row
+        self._fill_tables()
+        self._style_cache()                  # the calibration moved the sweeps and crouches
+
+    # -- the gait stack ------------------------------------------------------------------
+
+    def _need_layers(self) -> int:
+        return max(len(layers) for layers in self._layers)
+
+    def _need_rows(self) -> int:
+        return max(st.table.shape[0] for layers in self._layers for st, _ in layers)
+
+    def _bind(self, stack: GaitStack, row: int) -> None:
+        """Make this controller's arrays views of row ``row`` of ``stack``."""
+        for name in _STACK_FIELDS:
+            setattr(self, name, getattr(stack, name)[row])
+        self._gs, self._gr = stack, row
+        self._calls = {}
+
+    def _fill_tables(self) -> None:
+        """The style layers' speed tables into the padded arrays the kernel reads (a
+        larger stack of its own when they do not fit)."""
+        if self._need_layers() > self._tab.shape[1] or self._need_rows() > self._tab.shape[2]:
+            GaitStack([self])
+        self._tab[:] = 0.0
+        self._tab_n[:] = 0
+        self._tab_w[:] = 0.0
+        for g, layers in enumerate(self._layers):
+            self._tab_nl[g] = len(layers)
+            for k, (st, w) in enumerate(layers):
+                t = st.table
+                self._tab[g, k, :t.shape[0]] = t
+                self._tab_n[g, k] = t.shape[0]
+                self._tab_w[g, k] = w
+
+    def _terrain(self, place_pos) -> None:
+        """Step 4 of ``step`` for a terrain given by Python functions: sample the points
+        the kernel wrote (``_query``), the mean ground under the feet, the normal."""
+        F = self.rig.nfoot
+        hts = self._heights
+        self._sample(self._query, hts)
+        self._sv[SK.GROUND_IN] = float(np.mean(hts[2 * F:3 * F])) if F else float(hts[3 * F])
+        if self._normal is not None:
+            n = np.asarray(self._normal(place_pos[0], place_pos[1]), dtype=float).reshape(3)
+            self._sv[SK.NX], self._sv[SK.NY], self._sv[SK.NZ] = float(n[0]), float(n[1]), float(n[2])
 
     def observe(self, char_pos, char_rot) -> None:
         """What the IK made of the goals the last ``step`` wrote: ``char_pos`` (nbody, 3)
@@ -464,6 +671,8 @@ class GaitController:
                             f"{type(normal).__name__}")
         self._height = height
         self._normal = normal
+        self._sv[SK.TERRAIN] = 0.0 if height is None and normal is None else 1.0
+        self._sv[SK.HAS_NORMAL] = 0.0 if normal is None else 1.0
         self._vectorised = True
         if height is not None:
             try:
@@ -503,8 +712,13 @@ class GaitController:
     # -- static per-style arrays ----------------------------------------------------------
 
     def _rebuild_patterns(self) -> None:
+        self._rebuild_paths()
+        if self._gs is not None:             # (made at the end of __init__)
+            self._fill_tables()
+            self._style_cache()
+
+    def _rebuild_paths(self) -> None:
         r = self.rig
-        self._cache = None                   # per-style constants of ``step`` (``_style_cache``)
         for g in range(len(self._layers)):
             layers = self._layers[g]
             path = layers[0][0].path.copy()
@@ -546,29 +760,25 @@ class GaitController:
             self.step_duty_scale[steps] = dsc
             self.step_lift_scale[steps] = lsc
 
-    def _style_cache(self) -> dict:
+    def _style_cache(self) -> None:
         """What ``step`` needs of the styles that does not change from frame to frame
-        (rebuilt when a style or the calibration changes): per group the cadence cap
-        (cycles/s), the top speed entry (leg lengths/s) and its row, and the half-sweeps at
-        the top entry's crouch; the style scalars of group 0."""
+        (rebuilt when a style or the calibration changes), into the arrays the kernel
+        reads: per group the cadence cap (cycles/s), the top speed entry (leg lengths/s)
+        and its row, and the half-sweeps at the top entry's crouch; the style scalars of
+        group 0."""
         r = self.rig
-        G = max(r.ngroup, 1)
-        c = {"cap": np.zeros(G), "top": np.zeros(G), "p_top": np.zeros((G, 8)), "sa": np.zeros((G, 2)),
-             "settle": np.zeros(G)}
         for g in range(r.ngroup):
             Lg = r.group_length[g]
             mc = self._style_scalar(g, "max_cadence") / math.sqrt(max(Lg, 1e-3))
-            c["cap"][g] = mc * r.group_ratio[g]
-            c["settle"][g] = 0.5 * mc
+            self._sc_cap[g] = mc * r.group_ratio[g]
+            self._sc_settle[g] = 0.5 * mc
             top = self._layers[g][0][0].table[-1, 0]
-            c["top"][g] = top
-            c["p_top"][g] = self._params(g, top)
-            c["sa"][g] = self._sweep(g, min(max(c["p_top"][g, 7] * Lg, self.min_crouch), self.max_crouch))
-        c["accel"] = self._style_scalar(0, "accel")
-        c["turn_accel"] = self._style_scalar(0, "turn_accel")
-        c["slope_align"] = self._style_scalar(0, "slope_align")
-        self._cache = c
-        return c
+            self._sc_top[g] = top
+            self._sc_ptop[g] = self._params(g, top)
+            self._sc_sa[g] = self._sweep(g, min(max(self._sc_ptop[g, 7] * Lg, self.min_crouch), self.max_crouch))
+        self._sv[SK.ACCEL] = self._style_scalar(0, "accel")
+        self._sv[SK.TURN_ACCEL] = self._style_scalar(0, "turn_accel")
+        self._sv[SK.SLOPE_ALIGN] = self._style_scalar(0, "slope_align")
 
     def _params(self, g: int, rel_speed: float) -> np.ndarray:
         """The blended speed-entry row of group g at ``rel_speed`` (into a reused buffer)."""
@@ -662,224 +872,12 @@ class GaitController:
 
     def step(self, dt, place_pos, place_rot, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw) -> None:
         """Advance the gait by ``dt`` seconds, writing into the given views (see the
-        runtime's contract in the module docstring of ``engine.gait``)."""
-        r = self.rig
-        yaw_now = 2.0 * math.atan2(float(place_rot[3]), float(place_rot[0]))
-        if (not self._started or self._yaw is None
-                or math.hypot(place_pos[0] - self._last_place[0], place_pos[1] - self._last_place[1])
-                > self._replant
-                or abs(math.remainder(yaw_now - self._yaw, 2 * math.pi)) > 1e-6):
-            # first frame, or the game moved the character itself: plant afresh
-            self._start(place_pos, yaw_now)
-            self._prev_root_pos[:] = root_pos
-            self._prev_root_pos[2] -= self._crouch
-            self._prev_root_rot[:] = root_rot
-        self._time += dt
-        L = self._L
-
-        # 1. speed limit (no overreach) and acceleration-limited root motion
-        sc = self._cache if self._cache is not None else self._style_cache()
-        limit = math.inf                   # forward (m/s)
-        limit_y = math.inf                 # sideways
-        for g in range(r.ngroup):
-            Lg = r.group_length[g]
-            cap = sc["cap"][g]
-            top = sc["top"][g]
-            p = sc["p_top"][g]
-            sa = sc["sa"][g]
-            sb = self._sweep(g, self._crouch)
-            duty = max(p[2], 0.05)
-            limit = min(limit, cap * min(p[1] * Lg, 1.6 * min(sa[0], sb[0]) / duty), top * Lg * 1.25)
-            limit_y = min(limit_y, cap * min(p[1] * Lg, 1.6 * min(sa[1], sb[1]) / duty), top * Lg * 1.25)
-        self.speed_limit = limit
-        cmd = self._cmd_v
-        cmd_speed = math.hypot(cmd[0], cmd[1])
-        w_cmd = self._cmd_w
-        radius = self._radius
-        # the command as a share of what the legs allow (an ellipse of velocities; a turn
-        # moves feet either way, so it counts against the smaller limit)
-        demand = 0.0
-        if limit < math.inf:
-            lo = max(min(limit, limit_y), 1e-12)
-            demand = math.hypot(cmd[0] / max(limit, 1e-12), cmd[1] / max(limit_y, 1e-12)) + abs(w_cmd) * radius / lo
-        if demand > 1.0:
-            k = 1.0 / demand
-            tx, ty, tw = cmd[0] * k, cmd[1] * k, w_cmd * k
-        else:
-            tx, ty, tw = cmd[0], cmd[1], w_cmd
-        acc = sc["accel"] * L
-        tacc = sc["turn_accel"]
-        dvx, dvy = tx - self.velocity[0], ty - self.velocity[1]
-        dv = math.hypot(dvx, dvy)
-        if dv > acc * dt:
-            dvx, dvy = dvx * acc * dt / dv, dvy * acc * dt / dv
-        self._prev_v[:] = self.velocity
-        self.velocity[0] += dvx
-        self.velocity[1] += dvy
-        dw = tw - self.turn_rate
-        self.turn_rate += max(-tacc * dt, min(tacc * dt, dw))
-        # integrate the placement: heading, then position in the mid-step heading
-        yaw0 = self._yaw
-        self._yaw = yaw0 + self.turn_rate * dt
-        ym = 0.5 * (yaw0 + self._yaw)
-        cm, sm = math.cos(ym), math.sin(ym)
-        vx = cm * self.velocity[0] - sm * self.velocity[1]
-        vy = sm * self.velocity[0] + cm * self.velocity[1]
-        place_pos[0] += vx * dt
-        place_pos[1] += vy * dt
-        h = 0.5 * self._yaw
-        place_rot[0], place_rot[1], place_rot[2], place_rot[3] = math.cos(h), 0.0, 0.0, math.sin(h)
-        speed = math.hypot(self.velocity[0], self.velocity[1])
-        idle = (cmd_speed < IDLE_SPEED * L and abs(w_cmd) < IDLE_TURN
-                and speed < IDLE_SPEED * L and abs(self.turn_rate) < IDLE_TURN)
-        # legs the calibration found unable to step at all (no sweep the IK meets along one
-        # axis) stand: a step would move the planted feet
-        self.immobile = r.nstep > 0 and min(limit, limit_y) <= 0.0
-        if self.immobile:
-            idle = True
-        if self._idle and not idle and all(self.step_parked[s] == 1 for s in range(r.nstep)):
-            # setting off from a stand: start each group's cycle just before its front
-            # stepper lifts, so the first step comes at once instead of after up to a cycle
-            for g in range(r.ngroup):
-                steps = self._group_steps[g]
-                first = min(steps, key=lambda k: r.step_rank[k])
-                duty0 = self._params(g, 0.0)[2] * self.step_duty_scale[first]
-                self.group_phase[g] = (self.step_trigger[first] + duty0 - 0.005) % 1.0
-                for k in steps:
-                    self.step_prev_u[k] = (self.group_phase[g] - self.step_trigger[k]) % 1.0
-                    self.step_done[k] = 0
-        self._idle = idle
-
-        # 2. cadence per group, locked by the harmonized ratios
-        base = 0.0
-        for g in range(r.ngroup):
-            Lg = r.group_length[g]
-            v_eff = speed + abs(self.turn_rate) * r.group_radius[g]
-            p = self._params(g, v_eff / Lg)
-            sx, sy = self._sweep(g, self._crouch)
-            duty = p[2]
-            # the sweep along the direction of travel (on the ellipse of the two half-sweeps),
-            # the smaller one for the turn
-            ux, uy = self.velocity[0] / max(speed, 1e-12), self.velocity[1] / max(speed, 1e-12)
-            s_dir = 1.0 / max(math.hypot(ux / max(sx, 1e-12), uy / max(sy, 1e-12)), 1e-12) if speed > 0 else sx
-            stride = min(p[1] * Lg, 1.6 * s_dir / duty)
-            stride_turn = min(p[1] * Lg, 1.6 * min(sx, sy) / duty)
-            f_g = speed / max(stride, 1e-6) + abs(self.turn_rate) * r.group_radius[g] / max(stride_turn, 1e-6)
-            settle = sc["settle"][g]
-            if not idle:
-                f_g = max(f_g, 0.35 * settle)
-            elif any(self.step_parked[s] == 0 for s in self._group_steps[g]):
-                f_g = settle
-            base = max(base, f_g / r.group_ratio[g])
-            self.group_duty[g] = duty
-            self.group_sweep[g, 0] = 0.97 * sx
-            self.group_sweep[g, 1] = 0.97 * sy
-            self.group_park[g] = 0.03 * Lg
-            self.group_lift[g] = p[3] * Lg
-            gain = min(v_eff / Lg, 1.0)
-            self.group_bob[g] = p[4] * Lg * gain * self.bob_scale
-            self.group_sway[g] = p[5] * Lg * gain
-            self._crouch_want[g] = p[7] * Lg
-        for g in range(r.ngroup):
-            self.group_rate[g] = base * r.group_ratio[g]
-
-        # 3. stance/flight transitions and touchdown predictions
-        self._place3[0], self._place3[1], self._place3[2] = place_pos[0], place_pos[1], self._yaw
-        self._vel3[0], self._vel3[1], self._vel3[2] = vx, vy, self.turn_rate
-        F = r.nfoot
-        q = self._query
-        if r.nstep:
-            K.gait_plan(dt, self._place3, self._vel3, idle, self.group_rate, self.group_phase, self.group_duty,
-                        self.group_sweep, self.group_park, self.path, r.step_group, self.step_trigger,
-                        self.step_duty_scale, r.step_foot_adr, r.step_foot_num, self.step_state,
-                        self.step_progress, self.step_prev_u, self.step_parked, self.step_lift_u, self.step_done,
-                        r.foot_body,
-                        r.foot_neutral,
-                        self.foot_world, self.foot_lift, self.foot_yaw, self.foot_lift_yaw, self.foot_target,
-                        self.foot_target_yaw, goal_pw, q, float(place_pos[2]), self._prev_root_pos,
-                        self._prev_root_rot, r.foot_hip, r.foot_jointrel, r.foot_chain, r.foot_rigid,
-                        self.group_stretch, self._group_support)
-        # ground under the centre and four points around it (slope at the body's scale)
-        e = self._slope_e
-        cy, sy = math.cos(self._yaw), math.sin(self._yaw)
-        q[3 * F, 0], q[3 * F, 1] = place_pos[0], place_pos[1]
-        q[3 * F + 1, 0], q[3 * F + 1, 1] = place_pos[0] + e * cy, place_pos[1] + e * sy
-        q[3 * F + 2, 0], q[3 * F + 2, 1] = place_pos[0] - e * cy, place_pos[1] - e * sy
-        q[3 * F + 3, 0], q[3 * F + 3, 1] = place_pos[0] - e * sy, place_pos[1] + e * cy
-        q[3 * F + 4, 0], q[3 * F + 4, 1] = place_pos[0] + e * sy, place_pos[1] - e * cy
-
-        # 4. the ground
-        hts = self._heights
-        self._sample(q, hts)
-
-        # 5. placement height and torso slope
-        ground = float(np.mean(hts[2 * F:3 * F])) if F else float(hts[3 * F])
-        a_h = 1.0 - math.exp(-dt / HEIGHT_TAU)
-        place_pos[2] += a_h * (ground - place_pos[2])
-        if self._normal is not None:
-            n = np.asarray(self._normal(place_pos[0], place_pos[1]), dtype=float).reshape(3)
-            nz = max(float(n[2]), 1e-3)
-            gx, gy = -float(n[0]) / nz, -float(n[1]) / nz          # world slope dz/dx, dz/dy
-            sx, sl = cy * gx + sy * gy, -sy * gx + cy * gy          # ... in the character frame
-        else:
-            sx = (hts[3 * F + 1] - hts[3 * F + 2]) / (2 * e)
-            sl = (hts[3 * F + 3] - hts[3 * F + 4]) / (2 * e)
-        # the ground plane under the character (world), for the passive bodies
-        gx, gy = cy * sx - sy * sl, sy * sx + cy * sl
-        nrm = math.sqrt(gx * gx + gy * gy + 1.0)
-        gp = self.ground_plane
-        gp[0], gp[1], gp[2] = -gx / nrm, -gy / nrm, 1.0 / nrm
-        gp[3] = gp[0] * place_pos[0] + gp[1] * place_pos[1] + gp[2] * float(hts[3 * F])
-        a_t = 1.0 - math.exp(-dt / TILT_TAU)
-        self._tilt[0] += a_t * (sx - self._tilt[0])
-        self._tilt[1] += a_t * (sl - self._tilt[1])
-        # lean: pitch into acceleration, roll into the turn (centripetal acceleration)
-        p0 = self._params(0, speed / L) if r.ngroup else self._row
-        lean_k = float(p0[6]) if r.ngroup else 0.0
-        ax = (self.velocity[0] - self._prev_v[0]) / dt
-        ay = speed * self.turn_rate
-        self._lean[0] += a_t * (lean_k * ax / L - self._lean[0])
-        self._lean[1] += a_t * (-lean_k * ay / L - self._lean[1])   # lean into the turn
-        align = sc["slope_align"]
-        pitch = -align * math.atan(self._tilt[0]) + self._lean[0]      # nose up on an uphill (-pitch about +y)
-        roll = align * math.atan(self._tilt[1]) + self._lean[1]
-        _pitch_roll_into(pitch, roll, self._root_dq)
-        # the body's slope in the world: feet in flight turn toward it, planted ones keep theirs
-        self._slope_w[0] = cy * self._tilt[0] - sy * self._tilt[1]
-        self._slope_w[1] = sy * self._tilt[0] + cy * self._tilt[1]
-        # crouch: the style's, low-pass filtered
-        want = self.min_crouch
-        for g in range(r.ngroup):
-            want = max(want, self._crouch_want[g])      # the style's crouch at the group's speed (step 2)
-        want = min(want, self.max_crouch)
-        self._crouch += a_t * (want - self._crouch)
-        self._root_dpos[2] = -self._crouch
-        if r.mode == "crawl":
-            # a crawler's body lies on the ground: no crouch, bob or sway of the root (the
-            # arching of the spine between pseudo-feet is the motion)
-            self._root_dpos[2] = 0.0
-            self.group_bob[:] = 0.0
-            self.group_sway[:] = 0.0
-        if r.mode == "float":
-            # hover with a gentle bob at the rest height over the ground
-            self._root_dpos[2] = 0.03 * r.float_height * (1.0 - math.cos(2.0 * math.pi * 0.4 * self._time))
-
-        # 6. feet and root
-        K.gait_pose(place_pos, self._yaw, hts, self.path, self.group_lift, self.group_bob, self.group_sway,
-                    self.group_duty, r.step_group, r.step_side, self.step_lift_scale, self.step_duty_scale,
-                    r.step_foot_adr, r.step_foot_num, self.step_state, self.step_progress, self.step_prev_u,
-                    r.foot_body, r.foot_offset, r.foot_rest_rot, r.foot_hip, r.foot_jointrel, r.foot_chain,
-                    r.foot_rigid, r.foot_knee, r.foot_contact, self.foot_world, self.foot_lift, self.foot_yaw,
-                    self.foot_lift_yaw, self.foot_target,
-                    self.foot_target_yaw, self._slope_w, self.foot_slope, 1.0 - math.exp(-dt / FOOT_TILT_TAU),
-                    self._foot_tilt, self._root_dq, self._root_dpos, self._bob,
-                    1.0 - math.exp(-dt / BOB_TAU), root_pos, root_rot,
-                    goal_pos, goal_rot, goal_pw, goal_rw, self.foot_bias, self.step_lift_u, self.step_parked,
-                    self.step_done, self._goal_written)
-        self._written = True
-        self._last_place[:] = place_pos
-        self._prev_root_pos[:] = root_pos
-        self._prev_root_rot[:] = root_rot
+        runtime's contract in the module docstring of ``engine.gait``): steps 1-6 of the
+        module docstring, in ``engine.gait._step_kernels.gait_rows`` (the runtime calls
+        it for all the walking characters of a stack at once, ``gait_stage``)."""
+        args = (place_pos[None], place_rot[None], root_pos[None], root_rot[None], goal_pos[None], goal_rot[None],
+                goal_pw[None], goal_rw[None], self._ground_out, self._ground_set_out)
+        gait_stage(dt, self._gs, np.array([self._gr], np.int64), np.zeros(1, np.int64), args)
 
 
 def _as_style(style) -> GaitStyle:
