@@ -55,6 +55,11 @@ PASSIVE_GROUND = ("a passive body (Jiggles) hanging from a body that is itself a
                   "contact turns it about its joint, and the joint is already low")
 KNEELESS = ("a knee-less leg on a spine segment the clip moves: the standing stage holds the root where the "
             "stilts can be, not the segment the leg hangs from, so the IK misses the foot and it dips")
+WING_FLAP = ("wing_flap keys position and rotation goals on every wing bone that no rigid wing can take at once; "
+             "the IK keeps the wing in one piece (it tore at the joints before, 1.3 bones) and misses them: "
+             "re-author the clip as tail_wag was")
+PASSIVE_POP = ("a passive detail body (Jiggles) turning fast where the spine body it hangs from now swings to "
+               "point at its neighbour's joint")
 SPIDER_PALP = "the palps' goals are beyond what the palp's limb can reach in the pose the spine takes"
 REACH = "a reachable full-weight goal missed by more than 3% of the reach (conflicting goals on the limb)"
 
@@ -142,39 +147,43 @@ def _params(keys: list[str], name_of) -> list:
 
 
 # -- the known defects (measured on this sweep; figures are the worst variant's) ----------------
-_known(IK_ARC, "rotation_pop", "bat dance 1.114; bat perform 1.598; bat pound_ground 2.580; bat wing_flap 0.821; "
+_known(IK_ARC, "rotation_pop", "bat wing_flap 0.821; "
        "centaur pound_ground 0.756; crab hand_to_mouth 0.824; elephant crouch 0.819; forkstrider eat_fruit 0.778; "
-       "forkstrider hand_to_mouth 2.263; hopper dance 0.741; hopper pick_up_rock 0.855; hopper pound_ground 0.617; "
+       "forkstrider hand_to_mouth 2.263; hopper pick_up_rock 0.855; "
        "humanoid eat_fruit 0.510; humanoid hand_to_mouth 1.137; humanoid pick_fruit 0.519; humanoid pound_ground 0.527; "
        "humanoid wave 2.887; inchworm crouch 0.668; kangaroo pound_ground 0.532; longspine eat_fruit 2.640; "
-       "longspine hand_to_mouth 2.445; longspine pound_ground 2.936; octopus eat_fruit 2.174; "
+       "longspine hand_to_mouth 2.445; octopus eat_fruit 2.174; "
        "octopus hand_to_mouth 1.515; octopus hold_platter 0.910; prehensile dance 0.723; prehensile perform 3.012; "
-       "prehensile pick_up_rock 2.050; spider hand_to_mouth 0.581; threearmed perform 0.575; "
-       "threearmed pound_ground 1.807; trex dance 0.852; trex pound_ground 0.647; twoheaded pick_fruit 0.683; "
+       "prehensile pick_up_rock 2.050; spider hand_to_mouth 0.581; "
+       "threearmed pound_ground 1.807; trex pound_ground 0.647; twoheaded pick_fruit 0.683; "
        "twoheaded wave 0.543; "
        "random_101 pound_ground 0.762; random_109 hand_to_mouth 1.692; random_109 hold_platter 0.764; "
        "random_109 point_at_target 0.588; random_110 pick_up_rock 0.527; random_110 pound_ground 0.646; "
        "random_112 perform 0.528; random_114 pick_up_rock 0.682; random_116 dance 0.523; random_116 hold_platter 1.497; "
-       "random_116 hug 0.758; random_116 perform 0.627; random_116 wing_flap 0.631; random_117 pick_fruit 0.727; "
+       "random_116 perform 0.627; random_116 wing_flap 0.631; random_117 pick_fruit 0.727; "
        "random_117 point_at_target 0.695")
 _known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; inchworm crouch 0.0553; inchworm jump_in_place 0.0497; "
-       "inchworm look_around 0.0339; inchworm nod_at_target 0.0355; inchworm perform 0.049; octopus clap 0.0763; "
+       "inchworm nod_at_target 0.0355; inchworm perform 0.049; octopus clap 0.0763; "
        "octopus dance 0.097; octopus eat_fruit 0.2153; octopus hand_to_mouth 0.2224; octopus hold_platter 0.163; "
        "octopus hug 0.1346; octopus perform 0.0806; octopus pick_up_rock 0.0281; octopus shrug 0.0229; "
        "scorpion look_around 0.0375; snake dance 0.0598; snake jump_in_place 0.1201; snake look_around 1.0962; "
        "snake perform 0.6799; snake roar 0.1531; random_104 jump_in_place 0.0232; "
-       "random_113 jump_in_place 0.0312; random_117 crouch 0.0292; random_117 jump_in_place 0.046; "
+       "random_113 jump_in_place 0.0312; random_117 crouch 0.0292; random_117 dance 0.0354; "
+       "random_117 jump_in_place 0.046; random_117 pound_ground 0.0731; "
        "random_117 look_around 0.2403; random_117 pick_up_rock 0.0706")
 _known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_head 0.0322; trex pick_up_rock 0.0438; "
        "random_114 pick_up_rock 0.0734; random_117 clap 0.035; random_117 eat_fruit 0.0237; "
        "random_117 nod_at_target 0.0211; random_117 pick_fruit 0.0569; random_117 point_at_target 0.0608; "
        "random_117 shrug 0.0813; random_117 wave 0.0237")
+_known(WING_FLAP, "reach_miss", "bat wing_flap 0.2247")
+_known(WING_FLAP, "beyond_reach", "bat wing_flap 0.2266; bird wing_flap 0.1436")
+_known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312")
 _known(KNEELESS, "below_ground", "centipede dance 0.0211; centipede perform 0.1357; centipede roar 0.038")
 _known(KNEELESS, "reach_miss", "centipede dance 0.0633; centipede perform 0.1794")
 _known(SPIDER_PALP, "beyond_reach", "spider dance 0.2052; spider eat_fruit 0.2052; spider perform 0.2052; "
        "spider pick_fruit 0.2052; spider pound_ground 0.2052")
 _known(SPIDER_PALP, "reach_miss", "spider eat_fruit 0.0866; spider hand_to_mouth 0.5444; spider punch 0.265")
-_known(REACH, "reach_miss", "bat wing_flap 0.042; dragon wing_flap 0.1054; forkstrider hand_to_mouth 0.0306; "
+_known(REACH, "reach_miss", "dragon wing_flap 0.1054; forkstrider hand_to_mouth 0.0306; "
        "hopper hand_to_mouth 0.4318; random_110 wing_flap 0.0466; hopper punch 0.074; hopper stretch 0.1295; hopper wave 0.1474; "
        "longspine hand_to_mouth 0.0337; scorpion hand_to_mouth 0.05; trex stretch 0.0432")
 

@@ -906,20 +906,32 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         for j in range(adr, adr + num + 1):
             nxt = P.segbody_body[j] if j < adr + num else P.sp_body[P.seg_b[g]]
             if prev != 0 and P.b_parent[nxt] == prev:
-                _aim_at_child(P, prev, nxt, out_pos, out_rot)
+                _aim_at_child(P, prev, nxt, goal_pos_w, out_pos, out_rot)
             prev = nxt
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _aim_at_child(P, x, y, out_pos, out_rot):
-    """Swing body ``x`` about its joint so that its child ``y``'s joint lies on its bone."""
+def _aim_at_child(P, x, y, goal_pos_w, out_pos, out_rot):
+    """Swing body ``x`` about its joint so that its child ``y``'s joint lies on its bone; a
+    body held at a position goal of its own (a crawler's pseudo-foot on the ground) swings
+    only as far as the goal's weight leaves it free (the swing would lift its origin off
+    the goal)."""
+    w = 0.0
+    for gi in range(P.goal_body.shape[0]):
+        if P.goal_body[gi] == x:
+            w = min(max(goal_pos_w[x], 0.0), 1.0)
+    if w >= 1.0:
+        return
     rx = q4(out_rot, x)
     jx = vsub(v3(out_pos, x), qrot(rx, v3(P.b_joint_offset, x)))
     jy = vsub(v3(out_pos, y), qrot(q4(out_rot, y), v3(P.b_joint_offset, y)))
     cur = qrot(rx, vadd(v3(P.b_joint_offset, x), v3(P.b_local_joint, y)))
     want = vsub(jy, jx)
     if vnorm(cur) > EPS and vnorm(want) > EPS:
-        rx = qnormalize(qmul(qbetween(cur, want), rx))
+        d = qbetween(cur, want)
+        if w > 0.0:
+            d = qslerp((1.0, 0.0, 0.0, 0.0), d, 1.0 - w)
+        rx = qnormalize(qmul(d, rx))
         set4(out_rot, x, rx)
         set3(out_pos, x, vadd(jx, qrot(rx, v3(P.b_joint_offset, x))))
 
