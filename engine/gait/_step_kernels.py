@@ -68,11 +68,7 @@ def _split(x):
 @njit(cache=True)
 def _sqr(x):
     """x * x as an exact double-length (hi, lo) pair (Dekker's mul12)."""
-    xh, xl = _split(x)
-    p = xh * xh
-    q = xh * xl + xl * xh
-    z = p + q
-    return z, p - z + q + xl * xl
+    return _mul(x, x)
 
 
 @njit(cache=True)

@@ -275,6 +275,19 @@ def _nudge(delta, count, i, n, m):
     count[i, 0] += w
 
 
+
+@njit(cache=True, _nrt=False, inline="always")
+def _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, i, c, q):
+    """(pivot, tip) shares of a push on one side of a contact: a chain's end body moves
+    whole at its pivot (``_rigid_end``); any other bone splits it by where along the bone
+    the contact lies, turning toward its tip as far as a rotation goal holds the body."""
+    if _rigid_end(P, c):
+        return 1.0, 0.0
+    wr = min(max(goal_rot_w[lp_body[i]], 0.0), 1.0)
+    u = _bone_weight(lp_pos, i, c, q)
+    v = (0.0 if lp_parent[i] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
+    return v, (1.0 - wr) * u + wr
+
 @njit(cache=True, _nrt=False, inline="always")
 def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
@@ -348,22 +361,10 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         va = 0.0
         vb = 0.0
         if ia >= 0:
-            if _rigid_end(P, ca):
-                va, ua = 1.0, 0.0
-            else:
-                wr = min(max(goal_rot_w[lp_body[ia]], 0.0), 1.0)
-                u = _bone_weight(lp_pos, ia, ca, qa)
-                va = (0.0 if lp_parent[ia] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
-                ua = (1.0 - wr) * u + wr
+            va, ua = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ia, ca, qa)
             denom += va * va + ua * ua
         if ib >= 0:
-            if _rigid_end(P, cb):
-                vb, ub = 1.0, 0.0
-            else:
-                wr = min(max(goal_rot_w[lp_body[ib]], 0.0), 1.0)
-                u = _bone_weight(lp_pos, ib, cb, qb)
-                vb = (0.0 if lp_parent[ib] < 0 else 1.0) * ((1.0 - wr) * (1.0 - u) + wr)
-                ub = (1.0 - wr) * u + wr
+            vb, ub = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ib, cb, qb)
             denom += vb * vb + ub * ub
         lam = pen / max(denom, MIN_DENOM)
         if ia >= 0:

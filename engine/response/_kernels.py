@@ -53,6 +53,18 @@ def finite_or_zero(x):
 
 # -- impact response: the library search (engine.response.search) -------------------------
 
+
+@njit(cache=True, inline="always")
+def _track_worst(out_score, wslot, worst, j, K):
+    """Remember which of row ``j``'s ``K`` kept scores is the worst (the one a better
+    candidate replaces)."""
+    m = 0
+    for kk in range(1, K):
+        if out_score[j, kk] > out_score[j, m]:
+            m = kk
+    wslot[j] = m
+    worst[j] = out_score[j, m]
+
 @njit(cache=True, fastmath=True)
 def prefilter_topk(feats, sq, q, foot_feats, foot_sq, g, foot_of, allowed, out_idx, out_score):
     """The ``K = out_idx.shape[1]`` culled windows with the smallest prefilter score per
@@ -102,22 +114,12 @@ def prefilter_topk(feats, sq, q, foot_feats, foot_sq, g, foot_of, allowed, out_i
                 out_score[j, k] = sc
                 filled[j] = k + 1
                 if filled[j] == K:
-                    m = 0
-                    for kk in range(1, K):
-                        if out_score[j, kk] > out_score[j, m]:
-                            m = kk
-                    wslot[j] = m
-                    worst[j] = out_score[j, m]
+                    _track_worst(out_score, wslot, worst, j, K)
             elif sc < worst[j]:
                 m = wslot[j]
                 out_idx[j, m] = s
                 out_score[j, m] = sc
-                m = 0
-                for kk in range(1, K):
-                    if out_score[j, kk] > out_score[j, m]:
-                        m = kk
-                wslot[j] = m
-                worst[j] = out_score[j, m]
+                _track_worst(out_score, wslot, worst, j, K)
 
 
 @njit(cache=True)
