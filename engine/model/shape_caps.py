@@ -103,8 +103,11 @@ def _box_corners(centre, rot, half):
 
 
 def name_candidates(name: str) -> list[str]:
-    """A joint name and the forms the name table is also tried on: namespace removed,
-    leading ``Xx_`` tokens removed one by one, a trailing ``_NN`` index removed."""
+    """A joint name and the forms the name table is also tried on, most specific first:
+    namespace removed, leading ``Xx_`` tokens removed one by one, a trailing ``_NN`` index
+    removed; then trailing tokens removed one by one, so a part named before its segments
+    (``wing0_l_seg2``, ``tail0_seg1``, ``upperarm_twist_01_l``) still says what it is. The
+    last token wins over the first (``arm0_l_hand`` is a hand, not an arm)."""
     base = re.split(r"[:|]", name)[-1]
     out = [base]
     stem = re.sub(r"[_ .-]\d+$", "", base)
@@ -114,6 +117,11 @@ def name_candidates(name: str) -> list[str]:
             cand = "_".join(parts[k:])
             if cand and cand not in out:
                 out.append(cand)
+    parts = base.split("_")
+    for k in range(len(parts) - 1, 0, -1):
+        cand = "_".join(parts[:k])
+        if cand and cand not in out:
+            out.append(cand)
     return out
 
 
