@@ -9,7 +9,7 @@ module also runs alone (``python -m engine.cli ...``) on machines without the vi
     menagerie creatures from-bvh FILE.bvh --out FILE.yaml [--caps TABLE.yaml] [--scale K] [--force]
     menagerie creatures from-gltf FILE.glb --out FILE.yaml [--skin N] [--caps TABLE.yaml] [--scale K] [--force]
     menagerie creatures explain FILE             what an imported skeleton's bodies are, and why
-    menagerie bake ANIM.yaml CREATURE... --out DIR [--format glb|gltf|bvh] [--variant V] [--fps 30]
+    menagerie bake ANIM.yaml CREATURE... --out DIR [--format glb|gltf|bvh] [--variant V] [--fps 30] [--mesh auto|boxes]
                                                  the runtime's output as animated glTF or BVH files
     menagerie mocap simulate|tune ...            motion capture on physical bodies
 
@@ -181,7 +181,8 @@ def cmd_bake(args: argparse.Namespace) -> int:
 
     sources = [s.ref for s in file_sources(args.creatures)]
     results = bake(sources, args.animation, args.out, fmt=args.format, fps=args.fps, variant=args.variant,
-                   overwrite=args.force, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet)
+                   overwrite=args.force, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
+                   mesh=args.mesh)
     failed = [r for r in results if r.error]
     for r in results:
         if r.error:
@@ -201,6 +202,9 @@ def add_bake_command(sub) -> None:
     bk.add_argument("--format", default="glb", choices=["glb", "gltf", "bvh"])
     bk.add_argument("--variant", default=None, help="only this variant id (default: every variant, one clip each)")
     bk.add_argument("--fps", type=float, default=30.0, help="keys per second (default 30)")
+    bk.add_argument("--mesh", default="auto", choices=["auto", "boxes"],
+                    help="glTF skin: the rig's own mesh for a creature made from a glTF rig, else boxes "
+                         "(auto, the default), or always a box per body")
     bk.add_argument("--scheduler", default=None, help="address of a running Dask scheduler")
     bk.add_argument("--workers", type=int, default=None,
                     help="LocalCluster worker processes (default: one per core; 0 runs in this process)")

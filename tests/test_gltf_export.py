@@ -51,11 +51,18 @@ def exports(tmp_path_factory):
     horse = creature_from_gltf(os.path.join(RIGS, "quaternius_horse.glb"))
     rec = record_clip(horse, _anim("tail_wag"), fps=30)
     files["horse"] = (horse, rec, save_gltf(horse, [rec], out / "horse.glb"))
+    files["horse_mesh"] = (horse, rec, save_gltf(horse, [rec], out / "horse_mesh.glb", mesh=_rig_mesh("quaternius_horse")))
     return files
 
 
+def _rig_mesh(name):
+    from engine.io.gltf import import_gltf
+
+    return import_gltf(os.path.join(RIGS, f"{name}.glb"), mesh=True).mesh
+
+
 @pytest.mark.skipif(not clients.validator_available(), reason="npm gltf-validator not installed (setup.sh dev)")
-@pytest.mark.parametrize("name", ["humanoid", "spider", "snake", "horse"])
+@pytest.mark.parametrize("name", ["humanoid", "spider", "snake", "horse", "horse_mesh"])
 def test_validator_reports_no_errors(exports, name):
     report = clients.validate(exports[name][2])
     issues = report["issues"]
@@ -100,6 +107,106 @@ def test_loops_close_and_keys_are_every_body(exports):
     targets = {(ch["target"]["node"], ch["target"]["path"]) for ch in doc["animations"][0]["channels"]}
     assert targets == {(i, p) for i in range(c.nbody) for p in ("rotation", "translation")}
     assert doc["animations"][0]["extras"]["loop"] is True
+
+
+def _file_skinned(path, t=None):
+    """Vertices (Menagerie axes) of an export's first mesh, skinned by its own nodes: at
+    their rest TRS, or with the first animation sampled at ``t``."""
+    from engine.io.gltf import (
+        GLTF_TO_MENAGERIE,
+        _sample_channel,
+        load_gltf,
+        node_local_matrix,
+        node_parents,
+        read_accessor,
+        world_matrices,
+    )
+
+    gf = load_gltf(path)
+    doc = gf.doc
+    local = None
+    if t is not None:
+        trs = {}
+        anim = doc.animations[0]
+        for ch in anim.channels:
+            v = _sample_channel(gf, anim.samplers[ch.sampler], np.array([t]), ch.target.path, 0)[0]
+            trs.setdefault(ch.target.node, {})[ch.target.path] = v
+        local = []
+        for i, node in enumerate(doc.nodes):
+            x = trs.get(i, {})
+            local.append(node_local_matrix(gf, i, trs=(x.get("translation", node.translation),
+                                                       x.get("rotation", node.rotation), node.scale))
+                         if x else node_local_matrix(gf, i))
+    world = world_matrices(gf, node_parents(gf), local)
+    skin = doc.skins[0]
+    ibm = read_accessor(gf, skin.inverseBindMatrices)
+    m = np.array([world[j] @ ibm[k] for k, j in enumerate(skin.joints)])
+    attrs = doc.meshes[0].primitives[0].attributes
+    pos = read_accessor(gf, attrs.POSITION)
+    jj = read_accessor(gf, attrs.JOINTS_0).astype(np.int64)
+    ww = read_accessor(gf, attrs.WEIGHTS_0)
+    skinned = np.einsum("vab,vb->va", np.einsum("vk,vkab->vab", ww, m[jj]), np.c_[pos, np.ones(len(pos))])
+    return skinned[:, :3] @ GLTF_TO_MENAGERIE.T, doc
+
+
+@pytest.mark.parametrize("rig", ["riggedfigure_khronos", "quaternius_horse"])
+def test_a_rigs_own_mesh_follows_the_bodies(tmp_path, rig):
+    """A creature made from a glTF rig exports with the rig's mesh: every triangle of the
+    file, one primitive per material, and at any frame each vertex where linear blend
+    skinning of *our* recorded body poses puts it (the bind pose's inverse matrices and the
+    animated nodes agree); at the rest nodes the arms the relaxed rest swung down carry
+    their skin with them and the rest of the mesh stays where the file had it."""
+    from engine.io.gltf import import_gltf
+    from engine.io.gltf_export import _qconj, _qmul, _qrot
+    from engine.model.builder import build_creature
+
+    imp = import_gltf(os.path.join(RIGS, f"{rig}.glb"), mesh=True)
+    mesh = imp.mesh
+    c = build_creature(imp.cdef)
+    anim = "wave" if c.counts()["arms"] else "tail_wag"
+    rec = record_clip(c, _anim(anim), fps=30)
+    path = save_gltf(c, [rec], tmp_path / f"{rig}.glb", mesh=mesh)
+
+    rest, doc = _file_skinned(path)
+    assert len(doc.meshes[0].primitives) == len(mesh.primitives) == len({m for _, _, m in mesh.primitives})
+    assert len(doc.materials) == len(mesh.materials)
+    assert np.allclose(mesh.weights.sum(axis=1), 1.0) and mesh.joints.max() < c.nbody
+    moved = np.linalg.norm(imp.rest_delta[:, 1:], axis=1) > 1e-9  # per mesh body (definition order)
+    still = ~moved[mesh.joints].any(axis=1)
+    assert still.sum() > 0.5 * len(still)
+    size = float(np.ptp(mesh.positions, axis=0).max())
+    assert np.abs(rest[still] - mesh.positions[still]).max() < 1e-5 * size
+    if moved.any():  # a T- or A-pose: the hands came down
+        hands = mesh.weights[:, 0] * moved[mesh.joints[:, 0]] > 0.99
+        assert (rest[hands, 2] < mesh.positions[hands, 2] - 0.01 * size).mean() > 0.5
+
+    for k in (len(rec.times) // 3, len(rec.times) - 1):
+        got, _ = _file_skinned(path, t=float(rec.times[k]))
+        # Independent of the file: body b's motion from bind to frame k moves its vertices.
+        pos, rot = rec.body_pos[k], rec.body_rot[k]
+        perm = np.array([c.body(nm) for nm in mesh.body_names])           # mesh body -> creature body
+        pos, rot = pos[perm], rot[perm]
+        rel = _qmul(rot, _qconj(mesh.bind_rot))                            # (nb, 4)
+        want = np.zeros_like(mesh.positions)
+        for slot in range(4):
+            b = mesh.joints[:, slot]
+            moved_v = pos[b] + _qrot(rel[b], mesh.positions - mesh.bind_pos[b])
+            want += mesh.weights[:, slot, None] * moved_v
+        assert np.abs(got - want).max() < 1e-4 * size, (rig, k)
+
+
+def test_bake_writes_a_rigs_own_mesh_or_boxes_on_request(tmp_path):
+    from engine.cli import main
+
+    rig = os.path.join(RIGS, "riggedfigure_khronos.glb")
+    wave = os.path.join(ROOT, "animations", "wave.yaml")
+    assert main(["bake", wave, rig, "--out", str(tmp_path / "own"), "--workers", "0", "--quiet"]) == 0
+    assert main(["bake", wave, rig, "--out", str(tmp_path / "box"), "--workers", "0", "--quiet", "--mesh",
+                 "boxes"]) == 0
+    own, doc_own = _file_skinned(tmp_path / "own" / "riggedfigure_khronos_wave.glb")
+    box, doc_box = _file_skinned(tmp_path / "box" / "riggedfigure_khronos_wave.glb")
+    assert doc_own.meshes[0].name.endswith("_mesh") and doc_box.meshes[0].name.endswith("_boxes")
+    assert len(box) == 24 * len(doc_box.skins[0].joints) and len(own) != len(box)
 
 
 def test_reduce_keys_against_a_plain_reference():

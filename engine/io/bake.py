@@ -5,7 +5,8 @@ Each creature is one task: bind the animation, record every variant (or the one 
 for) with ``record_clip`` at ``fps``, write ``OUT/<creature>_<animation>.<format>``. Many
 creatures run on Dask (a ``LocalCluster`` of processes by default, ``scheduler`` for a
 running cluster; ``workers=0`` runs in this process) with a progress bar; a task that fails
-is reported with its reason and the others go on.
+is reported with its reason and the others go on. A creature made from a glTF rig is
+exported with the rig's own mesh, skinned to its bodies (``mesh="boxes"``: a box per body).
 
 BVH export (``recording_to_bvh``): one joint per body in the creature's tree, OFFSETs the
 rest joint offsets in centimetres, Y up; the root has position and ZXY rotation channels,
@@ -25,6 +26,9 @@ import numpy as np
 from engine.errors import DataError, MenagerieError
 
 FORMATS = ("glb", "gltf", "bvh")
+#: What a glTF export is skinned with: the rig's own mesh when the creature came from one
+#: (``auto``), or a box per body.
+MESHES = ("auto", "boxes")
 #: BVH files are written in centimetres.
 BVH_UNITS_PER_METRE = 100.0
 
@@ -82,8 +86,10 @@ class BakeResult:
 
 
 def bake_one(source: str, animation_path: str, out_dir: str, fmt: str = "glb", fps: float = 30.0,
-             variant: str | None = None, overwrite: bool = False) -> BakeResult:
-    """Bake one creature (a file ``creature_from_file`` reads); errors become ``BakeResult.error``."""
+             variant: str | None = None, overwrite: bool = False, mesh: str = "auto") -> BakeResult:
+    """Bake one creature (a file ``creature_from_file`` reads); errors become ``BakeResult.error``.
+    ``mesh``: ``"auto"`` writes a glTF rig's own mesh for a creature made from one and boxes
+    otherwise, ``"boxes"`` always boxes."""
     t0 = time.perf_counter()
     try:
         import engine
@@ -92,7 +98,18 @@ def bake_one(source: str, animation_path: str, out_dir: str, fmt: str = "glb", f
         from engine.io.gltf_export import record_clip, safe_names, save_gltf
         from engine.io.sources import creature_from_file
 
-        creature = creature_from_file(source)
+        if mesh not in MESHES:
+            raise DataError(f"mesh must be one of {', '.join(MESHES)}, got {mesh!r}", field="mesh")
+        source_mesh = None
+        if fmt in ("glb", "gltf") and mesh == "auto" and os.path.splitext(source)[1].lower() in (".glb", ".gltf"):
+            from engine.io.gltf import import_gltf
+            from engine.model.builder import build_creature
+
+            imported = import_gltf(source, mesh=True)
+            creature = build_creature(imported.cdef)
+            source_mesh = imported.mesh
+        else:
+            creature = creature_from_file(source)
         anim = engine.load_animation(animation_path)
         binding = bind(anim, creature)
         variants = [v for v in binding.variants if variant is None or v.id == variant]
@@ -106,7 +123,8 @@ def bake_one(source: str, animation_path: str, out_dir: str, fmt: str = "glb", f
         stem = safe_names([f"{creature.name}_{anim.name}"])[0]
         paths = []
         if fmt in ("glb", "gltf"):
-            paths.append(save_gltf(creature, recs, os.path.join(out_dir, f"{stem}.{fmt}"), overwrite=overwrite))
+            paths.append(save_gltf(creature, recs, os.path.join(out_dir, f"{stem}.{fmt}"), overwrite=overwrite,
+                                   mesh=source_mesh))
         else:
             for rec in recs:
                 p = os.path.join(out_dir, f"{safe_names([f'{creature.name}_{rec.name}'])[0]}.bvh")
@@ -120,13 +138,14 @@ def bake_one(source: str, animation_path: str, out_dir: str, fmt: str = "glb", f
                           error=f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
 
-def _bake_batch(sources, animation_path, out_dir, fmt, fps, variant, overwrite):
-    return [bake_one(s, animation_path, out_dir, fmt, fps, variant, overwrite) for s in sources]
+def _bake_batch(sources, animation_path, out_dir, fmt, fps, variant, overwrite, mesh="auto"):
+    return [bake_one(s, animation_path, out_dir, fmt, fps, variant, overwrite, mesh) for s in sources]
 
 
 def bake(sources: list[str], animation_path: str, out_dir: str, fmt: str = "glb", fps: float = 30.0,
          variant: str | None = None, overwrite: bool = False, workers: int | None = None,
-         scheduler: str | None = None, progress: bool = True, batch: int = 4) -> list[BakeResult]:
+         scheduler: str | None = None, progress: bool = True, batch: int = 4,
+         mesh: str = "auto") -> list[BakeResult]:
     """Bake ``animation_path`` onto every creature in ``sources`` (see the module docstring)."""
     if fmt not in FORMATS:
         raise MenagerieError(f"--format must be one of {', '.join(FORMATS)}, got {fmt!r}")
@@ -134,6 +153,8 @@ def bake(sources: list[str], animation_path: str, out_dir: str, fmt: str = "glb"
         raise MenagerieError(f"--fps must be a positive number, got {fps!r}")
     if not os.path.exists(animation_path):
         raise MenagerieError(f"{animation_path}: no such file")
+    if mesh not in MESHES:
+        raise MenagerieError(f"--mesh must be one of {', '.join(MESHES)}, got {mesh!r}")
     os.makedirs(out_dir, exist_ok=True)
     from engine.validation.grid import _NoBar, dask_available
 
@@ -151,7 +172,7 @@ def bake(sources: list[str], animation_path: str, out_dir: str, fmt: str = "glb"
     try:
         if serial:
             for s in sources:
-                results.append(bake_one(s, animation_path, out_dir, fmt, fps, variant, overwrite))
+                results.append(bake_one(s, animation_path, out_dir, fmt, fps, variant, overwrite, mesh))
                 bar.update(1)
         else:
             import logging
@@ -168,7 +189,7 @@ def bake(sources: list[str], animation_path: str, out_dir: str, fmt: str = "glb"
             try:
                 chunks = [sources[i:i + batch] for i in range(0, len(sources), batch)]
                 futures = client.map(_bake_batch, chunks, animation_path=animation_path, out_dir=out_dir, fmt=fmt,
-                                     fps=fps, variant=variant, overwrite=overwrite, pure=False)
+                                     fps=fps, variant=variant, overwrite=overwrite, mesh=mesh, pure=False)
                 for fut, out in as_completed(futures, with_results=True, raise_errors=False):
                     chunk = chunks[futures.index(fut)]
                     if isinstance(out, BaseException):

@@ -422,6 +422,7 @@ class GltfImport:
         relaxed: the arms swung down, one line each.
         file_box_pos, file_box_rot: the bodies' boxes in the file's bind pose (grounded),
             before the relaxed rest moved any; animations are carried from these.
+        mesh: the rig's own skinned mesh bound to the bodies (``import_gltf(mesh=True)``).
     """
 
     cdef: CreatureDef
@@ -439,22 +440,14 @@ class GltfImport:
     file_box_pos: np.ndarray | None = None
     file_box_rot: np.ndarray | None = None
     relaxed: list[str] = field(default_factory=list)
+    mesh: SourceMesh | None = None
 
 
-def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], notes: list[str]):
-    """Rest-skinned vertex positions (glTF world axes) and per-vertex (joint slot, weight)."""
+def _skin_primitives(gf: GltfFile, skin_index: int, nj: int, notes: list[str]):
+    """Every triangle primitive of every mesh node that uses the skin: ``(node, mesh, index,
+    primitive, POSITION, joint slots (nv, k), weights (nv, k) normalized)``; a vertex whose
+    weights are all zero has weight 0 everywhere."""
     doc = gf.doc
-    skin = doc.skins[skin_index]
-    nj = len(joints)
-    if skin.inverseBindMatrices is not None:
-        ibm = read_accessor(gf, skin.inverseBindMatrices)
-        if ibm.shape[0] < nj:
-            raise GltfError(f"inverseBindMatrices has {ibm.shape[0]} matrices for {nj} joints",
-                            path=gf.path, subject=str(skin_index), kind="skin", field="inverseBindMatrices")
-    else:
-        ibm = np.broadcast_to(np.eye(4), (nj, 4, 4))
-    skin_mat = np.array([world[j] @ ibm[k] for k, j in enumerate(joints)])  # (nj, 4, 4)
-    all_pos, all_slot, all_w = [], [], []
     for ni, node in enumerate(doc.nodes or []):
         if node.skin != skin_index or node.mesh is None:
             continue
@@ -490,18 +483,152 @@ def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: 
             wsum = ww.sum(axis=1, keepdims=True)
             ok = wsum[:, 0] > 1e-8
             ww = np.where(ok[:, None], ww / np.where(ok[:, None], wsum, 1.0), 0.0)
-            hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
-            mats = np.einsum("vk,vkab->vab", ww, skin_mat[jj])  # (nv, 4, 4)
-            skinned = np.einsum("vab,vb->va", mats, hom)[:, :3]
-            all_pos.append(skinned[ok])
-            all_slot.append(jj[ok])
-            all_w.append(ww[ok])
+            yield ni, node.mesh, pi, prim, pos, jj, ww
+
+
+def _skin_matrices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int]) -> np.ndarray:
+    """``W_j @ IBM_j`` of each joint of the skin (nj, 4, 4): what skins a vertex at rest."""
+    skin = gf.doc.skins[skin_index]
+    nj = len(joints)
+    if skin.inverseBindMatrices is not None:
+        ibm = read_accessor(gf, skin.inverseBindMatrices)
+        if ibm.shape[0] < nj:
+            raise GltfError(f"inverseBindMatrices has {ibm.shape[0]} matrices for {nj} joints",
+                            path=gf.path, subject=str(skin_index), kind="skin", field="inverseBindMatrices")
+    else:
+        ibm = np.broadcast_to(np.eye(4), (nj, 4, 4))
+    return np.array([world[j] @ ibm[k] for k, j in enumerate(joints)])
+
+
+def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], notes: list[str]):
+    """Rest-skinned vertex positions (glTF world axes) and per-vertex (joint slot, weight)."""
+    skin_mat = _skin_matrices(gf, skin_index, world, joints)
+    all_pos, all_slot, all_w = [], [], []
+    for _ni, _mi, _pi, _prim, pos, jj, ww in _skin_primitives(gf, skin_index, len(joints), notes):
+        ok = ww.sum(axis=1) > 0
+        hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
+        mats = np.einsum("vk,vkab->vab", ww, skin_mat[jj])  # (nv, 4, 4)
+        skinned = np.einsum("vab,vb->va", mats, hom)[:, :3]
+        all_pos.append(skinned[ok])
+        all_slot.append(jj[ok])
+        all_w.append(ww[ok])
     if not all_pos:
         return np.zeros((0, 3)), np.zeros((0, 4), np.int64), np.zeros((0, 4))
     width = max(s.shape[1] for s in all_slot)
     pad = [(np.pad(s, ((0, 0), (0, width - s.shape[1]))), np.pad(w, ((0, 0), (0, width - w.shape[1]))))
            for s, w in zip(all_slot, all_w, strict=True)]
     return (np.concatenate(all_pos), np.concatenate([p[0] for p in pad]), np.concatenate([p[1] for p in pad]))
+
+
+@dataclass
+class SourceMesh:
+    """A rig's own skinned mesh carried to export, bound to the creature's bodies.
+
+    Menagerie axes and metres, the import's scale and grounding applied, at the file's
+    bind pose. ``joints``/``weights`` (nv, 4): bodies and weights (summed where several of
+    the file's joints became one body or a helper bone's weight went to its kept ancestor,
+    the four heaviest kept, normalized; a vertex no joint weighs follows the root).
+    ``primitives``: (first index, index count, material) per primitive, triangles.
+    ``materials``: the file's materials, their factors kept and textures dropped.
+    ``bind_pos``/``bind_rot``: each body's box pose at the bind pose (the inverse bind
+    matrices of an export come from these). Bodies are indexed as in ``body_names`` (the
+    definition's order; an export matches them to the creature's bodies by name).
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray | None
+    joints: np.ndarray
+    weights: np.ndarray
+    indices: np.ndarray
+    primitives: list[tuple[int, int, int]]
+    materials: list[dict]
+    bind_pos: np.ndarray
+    bind_rot: np.ndarray
+    body_names: list[str]
+    notes: list[str] = field(default_factory=list)
+
+
+_MATERIAL_KEYS = ("name", "doubleSided", "alphaMode", "alphaCutoff", "emissiveFactor")
+_PBR_KEYS = ("baseColorFactor", "metallicFactor", "roughnessFactor")
+
+
+def _source_mesh(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], slot_body: np.ndarray,
+                 scale: float, shift: np.ndarray, bind_pos: np.ndarray, bind_rot: np.ndarray,
+                 body_names: list[str]) -> SourceMesh | None:
+    """The skin's triangle primitives as one ``SourceMesh`` (see there); None without any."""
+    C = GLTF_TO_MENAGERIE
+    notes: list[str] = []
+    skin_mat = _skin_matrices(gf, skin_index, world, joints)
+    pos_all, nrm_all, jnt_all, wgt_all, idx_all, prims, mat_of = [], [], [], [], [], [], {}
+    has_normals = True
+    nv = 0
+    n_index = 0
+    dropped_tex = False
+    for _ni, mi, pi, prim, pos, jj, ww in _skin_primitives(gf, skin_index, len(joints), []):
+        mode = prim.mode if prim.mode is not None else 4
+        if mode != 4:
+            notes.append(f"mesh {mi} primitive {pi}: mode {mode} is not triangles; left out")
+            continue
+        body = slot_body[jj]                                   # (nv, k)
+        nb = int(slot_body.max()) + 1
+        acc = np.zeros((len(pos), nb))
+        np.add.at(acc, (np.repeat(np.arange(len(pos)), jj.shape[1]), body.ravel()), ww.ravel())
+        none = acc.sum(axis=1) <= 0
+        acc[none, 0] = 1.0
+        top = np.argsort(-acc, axis=1)[:, :4]
+        w4 = np.take_along_axis(acc, top, axis=1)
+        w4 /= w4.sum(axis=1, keepdims=True)
+        top = np.where(w4 > 0, top, 0)
+        mats = np.einsum("vk,vkab->vab", ww, skin_mat[jj])
+        mats[none] = np.eye(4)
+        hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
+        p_g = np.einsum("vab,vb->va", mats, hom)[:, :3]
+        pos_all.append(scale * (p_g @ C.T) + shift)
+        if prim.attributes.NORMAL is not None and has_normals:
+            n = read_accessor(gf, prim.attributes.NORMAL)
+            n_g = np.einsum("vab,vb->va", mats[:, :3, :3], n)
+            n_m = n_g @ C.T
+            nrm_all.append(n_m / np.maximum(np.linalg.norm(n_m, axis=1, keepdims=True), 1e-12))
+        else:
+            has_normals = False
+        jnt_all.append(top)
+        wgt_all.append(w4)
+        if prim.indices is not None:
+            idx = read_accessor(gf, prim.indices).astype(np.int64).ravel()
+            if idx.size and (idx.min() < 0 or idx.max() >= len(pos)):
+                raise GltfError(f"mesh {mi} primitive {pi}: an index is out of range ({len(pos)} vertices)",
+                                path=gf.path, subject=str(mi), kind="mesh", field="indices")
+        else:
+            idx = np.arange(len(pos), dtype=np.int64)
+        idx = idx[: len(idx) - len(idx) % 3]
+        idx_all.append(idx + nv)
+        m = prim.material
+        if m is not None and m not in mat_of:
+            src = (gf.doc.materials or [])[m] if 0 <= m < len(gf.doc.materials or []) else {}
+            out = {k: src[k] for k in _MATERIAL_KEYS if k in src}
+            pbr = src.get("pbrMetallicRoughness") or {}
+            out["pbrMetallicRoughness"] = {k: pbr[k] for k in _PBR_KEYS if k in pbr}
+            dropped_tex |= any(k.endswith("Texture") for k in list(src) + list(pbr))
+            mat_of[m] = out
+        prims.append((n_index, len(idx), -1 if m is None else m))
+        n_index += len(idx)
+        nv += len(pos)
+    if not pos_all:
+        return None
+    if dropped_tex:
+        notes.append("textures are not carried to the export (material factors are)")
+    order = sorted(mat_of)
+    remap = {m: k for k, m in enumerate(order)}
+    materials = [mat_of[m] for m in order]
+    if any(p[2] < 0 for p in prims):
+        materials.append({"name": "default", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0]}})
+    default = len(materials) - 1
+    prims = [(a, b, remap[m] if m >= 0 else default) for a, b, m in prims]
+    return SourceMesh(positions=np.concatenate(pos_all), normals=np.concatenate(nrm_all) if has_normals else None,
+                      joints=np.concatenate(jnt_all), weights=np.concatenate(wgt_all),
+                      indices=np.concatenate(idx_all), primitives=prims, materials=materials,
+                      bind_pos=np.asarray(bind_pos, float).copy(), bind_rot=np.asarray(bind_rot, float).copy(),
+                      body_names=list(body_names), notes=notes)
 
 
 def _menagerie_extras(doc, body_node: list[int]) -> list[dict] | None:
@@ -595,7 +722,7 @@ def _fit_boxes(parent, joint_pos, vert_pos, vert_body, size):
 
 def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
                 scale: float | None = None, name: str | None = None, caps_from: str = "shape",
-                rest: str = "relaxed") -> GltfImport:
+                rest: str = "relaxed", mesh: bool = False) -> GltfImport:
     """Read a rig and make its creature definition (see the module docstring).
 
     Args:
@@ -607,6 +734,8 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
             table alone, as the BVH importer used to).
         rest: ``"relaxed"`` (arms of a T- or A-pose hang down, ``engine.model.rest_pose``)
             or ``"file"`` (the file's bind pose as it is).
+        mesh: also carry the rig's own skinned mesh, bound to the bodies, in
+            ``GltfImport.mesh`` (for export; costs a second pass over the vertices).
     """
     from engine.model.builder import build_creature
     from engine.model.shape_caps import find_caps
@@ -801,6 +930,19 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
                                   mode=caps_from, tip=tip)
     rest_delta = np.tile([1.0, 0.0, 0.0, 0.0], (len(names), 1))
     file_box = (centre.copy(), rotq.copy())
+    source_mesh = None
+    if mesh:
+        # Each of the file's joints to a body: a kept joint to its own, a helper bone to its
+        # nearest kept ancestor (it deforms nothing, so this only places stray weight).
+        offset = 1 if len(roots) > 1 else 0
+        slot_body = np.zeros(len(joints), np.int64)
+        for k in range(len(joints)):
+            a = k
+            while a >= 0 and a not in body_of_slot:
+                a = jparent[a]
+            slot_body[k] = body_of_slot[a] + offset if a >= 0 else 0
+        source_mesh = _source_mesh(gf, skin, world, joints, slot_body, scale, shift, file_box[0], file_box[1],
+                                   names)
     relaxed = []
     if rest == "relaxed":
         from engine.model.rest_pose import relax_arms
@@ -833,7 +975,7 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
                       notes=notes,
                       skipped=sorted(doc.nodes[i].name or f"node{i}" for i in skipped), reasons=reasons,
                       joint_world=jw, shift=shift, scale=scale, rest_delta=rest_delta, relaxed=relaxed,
-                      file_box_pos=file_box[0], file_box_rot=file_box[1])
+                      file_box_pos=file_box[0], file_box_rot=file_box[1], mesh=source_mesh)
 
 
 def creature_def_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,

@@ -9,8 +9,12 @@ gait, IK, jiggles: the whole ``tick``) at a fixed rate and keeps every body's wo
   the skin sits at the scene root with no transform, beside the root joint (ecosystem.md
   2.2: ``NODE_SKINNED_MESH_NON_ROOT`` otherwise).
 * **Mesh**: a box per body (24 vertices with flat normals), bound rigidly to its body
-  (``JOINTS_0 = [i, 0, 0, 0]``, ``WEIGHTS_0 = [1, 0, 0, 0]``).
-* **inverseBindMatrices**: the exact inverse of each node's rest world matrix, fourth row
+  (``JOINTS_0 = [i, 0, 0, 0]``, ``WEIGHTS_0 = [1, 0, 0, 0]``); or, for a creature made
+  from a glTF rig, the rig's own mesh (``mesh=``, ``engine.io.gltf.SourceMesh``: its
+  vertices at the file's bind pose, its weights moved onto the bodies, one primitive per
+  material, material factors kept, textures not).
+* **inverseBindMatrices**: the exact inverse of each node's world matrix at the mesh's
+  bind pose (the rest pose for boxes, the file's bind pose for a rig's mesh), fourth row
   written as exact ``[0, 0, 0, 1]``, column-major (the validator compares with ``==``).
 * **Animations**: one per clip, every body keyed (rotation and translation: "non-animated
   properties keep their values", so switching clips leaves no stale pose), LINEAR at the
@@ -347,8 +351,9 @@ def _box_mesh(creature):
 
 
 def gltf_document(creature, recordings: list[Recording], name: str | None = None,
-                  tolerance: float = KEY_TOLERANCE) -> tuple[dict, bytes]:
-    """The glTF JSON (a dict) and the binary chunk for ``creature`` with ``recordings``."""
+                  tolerance: float = KEY_TOLERANCE, mesh=None) -> tuple[dict, bytes]:
+    """The glTF JSON (a dict) and the binary chunk for ``creature`` with ``recordings``;
+    ``mesh``: a rig's own skinned mesh (``engine.io.gltf.SourceMesh``) instead of boxes."""
     n = creature.nbody
     names = safe_names(creature.body_names)
     buf = _Buffer()
@@ -373,27 +378,55 @@ def gltf_document(creature, recordings: list[Recording], name: str | None = None
             node["children"] = children[i]
         nodes.append(node)
 
-    # Mesh: boxes at rest in glTF world axes, each bound to its body.
-    verts, norms, vjoint, idx = _box_mesh(creature)
+    if mesh is None:
+        # Boxes at rest in glTF world axes, each bound to its body.
+        verts, norms, vjoint, idx = _box_mesh(creature)
+        vj = np.zeros((len(vjoint), 4), np.int64)
+        vj[:, 0] = vjoint
+        vw = np.zeros((len(vjoint), 4))
+        vw[:, 0] = 1.0
+        prims = [(0, len(idx), 0)]
+        materials = [{"name": "body", "pbrMetallicRoughness": {"baseColorFactor": [0.55, 0.6, 0.7, 1.0],
+                                                                "metallicFactor": 0.0, "roughnessFactor": 0.8}}]
+        bind_pos, bind_rot = creature.body_rest_pos, creature.body_rest_rot
+        mesh_name = "boxes"
+    else:
+        # The rig's own mesh at its bind pose; the inverse bind matrices are the bind pose's.
+        index = {nm: i for i, nm in enumerate(creature.body_names)}
+        missing = [nm for nm in mesh.body_names if nm not in index]
+        if missing or len(mesh.body_names) != n:
+            raise DataError(f"the source mesh is bound to {len(mesh.body_names)} bodies, the creature has {n}"
+                            + (f"; not in the creature: {', '.join(missing[:5])}" if missing else ""),
+                            subject=creature.name, kind="creature")
+        perm = np.array([index[nm] for nm in mesh.body_names], np.int64)  # mesh body -> creature body
+        verts, norms, vw, idx = mesh.positions, mesh.normals, mesh.weights, mesh.indices
+        vj = np.where(vw > 0, perm[mesh.joints], 0)  # unused slots name joint 0 (the validator checks)
+        prims, materials = mesh.primitives, mesh.materials
+        bind_pos = np.empty((n, 3))
+        bind_rot = np.empty((n, 4))
+        bind_pos[perm] = mesh.bind_pos
+        bind_rot[perm] = mesh.bind_rot
+        mesh_name = "mesh"
     vg = _to_gltf_vec(verts).astype(np.float32)
-    ng = _to_gltf_vec(norms).astype(np.float32)
     jtype, jcomp = (np.uint8, 5121) if n <= 256 else (np.uint16, 5123)
-    jj = np.zeros((len(vjoint), 4), jtype)
-    jj[:, 0] = vjoint
-    ww = np.zeros((len(vjoint), 4), np.float32)
-    ww[:, 0] = 1.0
     a_pos = buf.add(vg, "VEC3", 5126, target=34962, minmax=True)
-    a_nrm = buf.add(ng, "VEC3", 5126, target=34962)
-    a_jnt = buf.add(jj, "VEC4", jcomp, target=34962)
-    a_wgt = buf.add(ww, "VEC4", 5126, target=34962)
+    attributes = {"POSITION": a_pos}
+    if norms is not None:
+        attributes["NORMAL"] = buf.add(_to_gltf_vec(norms).astype(np.float32), "VEC3", 5126, target=34962)
+    attributes["JOINTS_0"] = buf.add(np.asarray(vj).astype(jtype), "VEC4", jcomp, target=34962)
+    attributes["WEIGHTS_0"] = buf.add(np.asarray(vw).astype(np.float32), "VEC4", 5126, target=34962)
     itype, icomp = (np.uint16, 5123) if len(vg) < 65535 else (np.uint32, 5125)
-    a_idx = buf.add(idx.astype(itype), "SCALAR", icomp, target=34963)
+    primitives = []
+    for first, count, material in prims:
+        a_idx = buf.add(np.asarray(idx[first:first + count]).astype(itype), "SCALAR", icomp, target=34963)
+        primitives.append({"attributes": dict(attributes), "indices": a_idx, "material": int(material)})
 
-    # Inverse bind matrices: inverse rest world matrix of each joint frame (glTF axes).
+    # Inverse bind matrices: inverse bind world matrix of each joint frame (glTF axes).
+    joint_bind = _joint_frames(creature, np.asarray(bind_pos, float), np.asarray(bind_rot, float))
     ibm = np.zeros((n, 4, 4))
     for i in range(n):
-        rg = _M2G @ _quat_matrix(creature.body_rest_rot[i]) @ _M2G.T
-        jg = _M2G @ joint_rest[i]
+        rg = _M2G @ _quat_matrix(bind_rot[i]) @ _M2G.T
+        jg = _M2G @ joint_bind[i]
         ibm[i, :3, :3] = rg.T
         ibm[i, :3, 3] = -rg.T @ jg
         ibm[i, 3] = (0.0, 0.0, 0.0, 1.0)  # exact: the validator compares with ==
@@ -401,17 +434,15 @@ def gltf_document(creature, recordings: list[Recording], name: str | None = None
     a_ibm = buf.add(ibm32, "MAT4", 5126)
 
     mesh_node = len(nodes)
-    nodes.append({"name": f"{safe_names([name or creature.name])[0]}_mesh", "mesh": 0, "skin": 0})
+    stem = safe_names([name or creature.name])[0]
+    nodes.append({"name": f"{stem}_mesh", "mesh": 0, "skin": 0})
     doc = {
         "asset": {"version": "2.0", "generator": GENERATOR},
         "scene": 0,
         "scenes": [{"name": name or creature.name, "nodes": [0, mesh_node]}],
         "nodes": nodes,
-        "meshes": [{"name": f"{safe_names([name or creature.name])[0]}_boxes", "primitives": [{
-            "attributes": {"POSITION": a_pos, "NORMAL": a_nrm, "JOINTS_0": a_jnt, "WEIGHTS_0": a_wgt},
-            "indices": a_idx, "material": 0}]}],
-        "materials": [{"name": "body", "pbrMetallicRoughness": {"baseColorFactor": [0.55, 0.6, 0.7, 1.0],
-                                                                 "metallicFactor": 0.0, "roughnessFactor": 0.8}}],
+        "meshes": [{"name": f"{stem}_{mesh_name}", "primitives": primitives}],
+        "materials": materials,
         "skins": [{"name": "bodies", "joints": list(range(n)), "inverseBindMatrices": a_ibm, "skeleton": 0}],
     }
 
@@ -474,14 +505,15 @@ def glb_bytes(doc: dict, data: bytes) -> bytes:
 
 
 def save_gltf(creature, recordings: list[Recording], path: str | os.PathLike, *, overwrite: bool = False,
-              name: str | None = None, tolerance: float = KEY_TOLERANCE) -> str:
-    """Write ``.glb`` (one file) or ``.gltf`` (JSON with the buffer as a data URI)."""
+              name: str | None = None, tolerance: float = KEY_TOLERANCE, mesh=None) -> str:
+    """Write ``.glb`` (one file) or ``.gltf`` (JSON with the buffer as a data URI); ``mesh``
+    as ``gltf_document``."""
     import base64
 
     path = os.fspath(path)
     if os.path.exists(path) and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (or --force) to replace it")
-    doc, data = gltf_document(creature, recordings, name=name, tolerance=tolerance)
+    doc, data = gltf_document(creature, recordings, name=name, tolerance=tolerance, mesh=mesh)
     suffix = os.path.splitext(path)[1].lower()
     if suffix == ".glb":
         blob = glb_bytes(doc, data)
