@@ -758,6 +758,7 @@ class _Group:
         self._pairs: dict[int, _PairBuffer] = {}
         self._pairs_version = -1
         self._pair_list: list = []
+        self._pair_cache: dict[int, tuple] = {}
         self._plans_version = -1
         self._plan_list: list = []
         self._events_version = -1
@@ -889,7 +890,18 @@ class _Group:
                     groups.setdefault(id(h.payload.bound), []).append((row, slot, h.payload, m))
         out = []
         nbody = self.creature.nbody
+        # A bound variant whose pairs (member row, slot, clip) are those of the last build
+        # keeps its views and bound kernels: a clip ending on one member rebuilds only its
+        # own variant's entry (binding kernels costs tens of microseconds per argument).
+        # The cache holds the clips, so the ids in a signature stay unique while cached.
+        cache = {}
         for key, pairs in groups.items():
+            sig = tuple((row, slot, id(clip)) for row, slot, clip, _ in pairs)
+            old = self._pair_cache.get(key)
+            if old is not None and old[0] == sig:
+                cache[key] = old
+                out.append(old[1])
+                continue
             clip0: _Clip = pairs[0][2]
             buf = self._pairs.get(key)
             if buf is None or buf.capacity < len(pairs):
@@ -920,7 +932,10 @@ class _Group:
             if scratches is not None:
                 args[10] = scratches
                 parallel = BoundKernel(RK.goals_pairs_parallel, tuple(args))
-            out.append((gather, serial, parallel, tables, external))
+            entry = (gather, serial, parallel, tables, external)
+            cache[key] = (sig, entry, pairs)
+            out.append(entry)
+        self._pair_cache = cache
         self._pair_list, self._pairs_version = out, version
         return out
 

@@ -195,3 +195,38 @@ def test_serial_and_parallel_frames_give_the_same_poses(human, perform):
         runs.append([m.world_positions.copy() for m in members])
     for a, b in zip(*runs, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_a_clip_change_rebuilds_only_the_variants_it_touches(human, perform, wave):
+    """Members on three bound variants (wave 0, wave 1, perform); one wave-0 member starts
+    performing: the wave-1 entry (its views and bound kernels) is kept as it was,
+    the two variants the switch touched are rebuilt, and every pose still equals the
+    member ticked alone."""
+    assert engine.bind(wave, human).nvariant >= 2
+
+    def setup(k, ch):
+        ch.play(wave, variant=k % 2) if k < 4 else ch.play(perform)
+
+    alone, members, crowd = _pair(human, 6, setup)
+    group = crowd._groups[0]
+
+    def run(frames):
+        for _ in range(frames):
+            crowd.tick(DT)
+            for a in alone:
+                a.tick(DT)
+
+    run(5)
+
+    before = [e[1] for e in group._pair_groups()]
+    assert len(before) == 3
+    for ch in (alone[0], members[0]):   # wave variant 0 -> perform
+        ch.play(perform)
+    run(40)
+    after = [e[1] for e in group._pair_groups()]
+    kept = [b for b in after if any(b is a for a in before)]
+    assert len(after) == 3 and len(kept) == 1
+    assert kept[0].args[4].shape[0] == 2                      # wave variant 1: members 1 and 3
+    for a, b in zip(alone, members, strict=True):
+        assert np.allclose(a.world_positions, b.world_positions, atol=1e-12, rtol=0)
+        assert np.allclose(a.world_rotations, b.world_rotations, atol=1e-12, rtol=0)
