@@ -46,7 +46,9 @@ creature standing on z = 0:
 5. **Names as a hint**: a name the table maps to ``wing`` turns an arm into a wing (no
    grasper); ``eye``/``ear``/``mouth``/``tail`` names add that capability to a body off
    the spine. Names are matched as in the BVH importer, also with leading ``Xx_`` tokens
-   (``CC_Base_``, ``b_``) and a trailing ``_NN`` index removed.
+   (``CC_Base_``, ``b_``) and a trailing ``_NN`` index removed, and, failing those, with
+   trailing tokens removed (``wing0_l_seg2``). A foot named as a hand stays a foot: the
+   Khronos fox's forefeet are ``b_LeftHand``, so a name cannot tell a knuckle-walker.
 
 A head with no mouth of its own stands in for it (as for BVH).
 ``mode="names"`` uses the name table alone (``engine.io.bvh_creature.joint_caps``' rules).
