@@ -1,5 +1,6 @@
 """glTF import and export speed (issue 15's floors: importing a 50-joint rig <= 0.5 s,
-exporting a 3-second clip on a 50-body creature <= 0.5 s). Medians of several runs.
+exporting a 3-second clip on a 50-body creature <= 0.5 s), and an export that carries a
+rig's own mesh. Medians of several runs.
 
     .venv/bin/python benchmarks/gltf_io.py
 """
@@ -54,6 +55,26 @@ def main():
     t_exp = median_time(export)
     print(f"export: spider ({spider.nbody} bodies), 3 s at 30 fps: record {t_rec:.3f} s, write {t_exp:.3f} s")
     out.update(export_bodies=spider.nbody, export_record_s=round(t_rec, 4), export_write_s=round(t_exp, 4))
+
+    # A rig's own mesh: the mannequin (12,597 vertices, three materials) with its skin.
+    from engine.model.builder import build_creature
+
+    rig = os.path.join(RIGS, "godot_mannequiny.glb")
+    t_mesh_imp = median_time(lambda: import_gltf(rig, mesh=True), repeat=3)
+    imp = import_gltf(rig, mesh=True)
+    man = build_creature(imp.cdef)
+    rec_m = record_clip(man, anim, fps=30, seconds=3.0)
+
+    def export_mesh():
+        doc, data = gltf_document(man, [rec_m], mesh=imp.mesh)
+        with tempfile.TemporaryFile() as f:
+            f.write(glb_bytes(doc, data))
+
+    t_mesh = median_time(export_mesh)
+    nv = len(imp.mesh.positions)
+    print(f"export with the rig's mesh: mannequin ({man.nbody} bodies, {nv} vertices), 3 s: "
+          f"import with mesh {t_mesh_imp:.3f} s, write {t_mesh:.3f} s")
+    out.update(mesh_vertices=nv, import_mesh_s=round(t_mesh_imp, 4), export_mesh_write_s=round(t_mesh, 4))
     print(json.dumps(out))
 
 
