@@ -132,6 +132,9 @@ def cmd_creatures_from_gltf(args: argparse.Namespace) -> int:
     output_file(args.out, args.force, suffixes=(".yaml", ".yml"))
     table = load_caps_table(args.caps) if args.caps else None
     imp = import_gltf(args.file, skin=args.skin, caps_table=table, scale=args.scale)
+    # The creature file remembers its rig, so a bake of it carries the rig's own mesh.
+    rel = os.path.relpath(os.path.abspath(args.file), os.path.dirname(os.path.abspath(args.out)))
+    imp.cdef.source = {"file": rel, "skin": int(imp.skin), "scale": float(imp.scale)}
     creature = build_creature(imp.cdef)
     try:
         write_creature_def(imp.cdef, args.out, overwrite=args.force)

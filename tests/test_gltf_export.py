@@ -365,3 +365,39 @@ def test_a_live_session_records_and_exports(tmp_path):
     np.testing.assert_allclose(m.body_pos, r.body_pos, atol=1e-6)
     with pytest.raises(ValueError, match="positive"):
         rec.capture(0.0)
+
+
+def test_a_creature_file_made_from_a_rig_bakes_with_the_rigs_mesh(tmp_path):
+    """``creatures from-gltf --out X.yaml`` writes where the rig is (``source:``); the file
+    reads back with it, saves with it, and a bake of the YAML carries the rig's own mesh.
+    A rig that is gone, or bad ``source`` fields, are errors naming the file and field."""
+    from engine.cli import main
+    from engine.errors import DataError
+    from engine.io.gltf import rig_mesh_of
+
+    rig = os.path.join(RIGS, "riggedfigure_khronos.glb")
+    yml = tmp_path / "fig.yaml"
+    assert main(["creatures", "from-gltf", rig, "--out", str(yml)]) == 0
+    c = engine.load_creature(yml)
+    assert os.path.samefile(os.path.join(tmp_path, c.source["file"]), rig) and c.source["skin"] == 0
+    c.save(tmp_path / "again.yaml")
+    assert engine.load_creature(tmp_path / "again.yaml").source == c.source
+    mesh = rig_mesh_of(c)
+    assert mesh is not None and sorted(mesh.body_names) == sorted(c.body_names)
+    wave = os.path.join(ROOT, "animations", "wave.yaml")
+    assert main(["bake", wave, str(yml), "--out", str(tmp_path / "out"), "--workers", "0", "--quiet"]) == 0
+    got, doc = _file_skinned(tmp_path / "out" / "riggedfigure_khronos_wave.glb")
+    assert doc.meshes[0].name.endswith("_mesh") and len(got) == len(mesh.positions)
+
+    text = yml.read_text()
+    moved = tmp_path / "elsewhere"
+    moved.mkdir()
+    (moved / "fig.yaml").write_text(text)          # the relative rig path no longer resolves
+    with pytest.raises(DataError) as err:
+        rig_mesh_of(engine.load_creature(moved / "fig.yaml"))
+    assert "fig.yaml" in str(err.value) and "source.file" in str(err.value)
+    for bad, field in (("  skin: 0", "  skin: -2"), ("  scale: 1.0", "  scale: nope")):
+        (tmp_path / "bad.yaml").write_text(text.replace(bad, field))
+        with pytest.raises(DataError) as err:
+            engine.load_creature(tmp_path / "bad.yaml")
+        assert "bad.yaml:" in str(err.value) and f"source.{bad.split(':')[0].strip()}" in str(err.value)

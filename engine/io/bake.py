@@ -110,6 +110,10 @@ def bake_one(source: str, animation_path: str, out_dir: str, fmt: str = "glb", f
             source_mesh = imported.mesh
         else:
             creature = creature_from_file(source)
+            if fmt in ("glb", "gltf") and mesh == "auto" and getattr(creature, "source", None):
+                from engine.io.gltf import rig_mesh_of
+
+                source_mesh = rig_mesh_of(creature)   # a creature file made from a rig
         anim = engine.load_animation(animation_path)
         binding = bind(anim, creature)
         variants = [v for v in binding.variants if variant is None or v.id == variant]

@@ -978,6 +978,30 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
                       file_box_pos=file_box[0], file_box_rot=file_box[1], mesh=source_mesh)
 
 
+def rig_mesh_of(creature) -> SourceMesh | None:
+    """The own mesh of the glTF rig ``creature`` was made from (``Creature.source``, written
+    by ``menagerie creatures from-gltf``), bound to its bodies; None for a creature made
+    from no rig. Errors name the creature file and ``source.file`` when the rig is gone or
+    its joints no longer match the creature's bodies."""
+    src = getattr(creature, "source", None)
+    if not src:
+        return None
+    base = os.path.dirname(os.path.abspath(creature.path)) if creature.path else os.getcwd()
+    rig = os.path.normpath(os.path.join(base, src["file"]))
+    if not os.path.exists(rig):
+        raise GltfError(f"the rig {rig} this creature was made from is not there (bake with --mesh boxes "
+                        "for boxes)", path=creature.path, field="source.file")
+    imp = import_gltf(rig, skin=src.get("skin"), scale=src.get("scale"), mesh=True)
+    if imp.mesh is None:
+        return None
+    missing = sorted(set(imp.mesh.body_names) ^ set(creature.body_names))
+    if missing:
+        raise GltfError(f"the creature's bodies no longer match the joints of its rig {rig} (only in one: "
+                        f"{', '.join(missing[:6])}); bake with --mesh boxes for boxes", path=creature.path,
+                        field="source.file")
+    return imp.mesh
+
+
 def creature_def_from_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: dict | None = None,
                            scale: float | None = None, name: str | None = None, rest: str = "relaxed") -> CreatureDef:
     """A ``CreatureDef`` for the rig in ``path``; arguments as ``import_gltf``."""

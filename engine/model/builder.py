@@ -375,7 +375,8 @@ def _derive(cdef, names, parent, caps, pos, rot, joint, extent) -> Creature:
         bounds=bounds, cap_bounds=cap_bounds, cap_count=cap_count,
     )
     return Creature(name=cdef.name, description=cdef.description, path=cdef.path,
-                    body_names=names, arrays=arrays, spine_root_index=spine_root_index)
+                    body_names=names, arrays=arrays, spine_root_index=spine_root_index,
+                    source=dict(cdef.source) if cdef.source else None)
 
 
 def _order_spine(parent: np.ndarray, is_spine: np.ndarray, pos: np.ndarray) -> np.ndarray:

@@ -75,10 +75,12 @@ class Creature:
 
     def __init__(self, *, name: str, description: str, path: str | None,
                  body_names: tuple[str, ...], arrays: dict[str, np.ndarray],
-                 spine_root_index: int) -> None:
+                 spine_root_index: int, source: dict | None = None) -> None:
         self.name = name
         self.description = description
         self.path = path
+        #: The glTF rig it was made from (``CreatureDef.source``), or None.
+        self.source = source
         self.body_names = body_names
         self._index = {n: i for i, n in enumerate(body_names)}
         self.spine_root_index = int(spine_root_index)
@@ -199,7 +201,7 @@ class Creature:
                 extents=tuple(float(v) for v in self.body_extent[i]),
             ))
         return CreatureDef(name=self.name, description=self.description, bodies=bodies,
-                           path=self.path)
+                           path=self.path, source=dict(self.source) if self.source else None)
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> None:
         """Write the creature file (format 1). Refuses to replace a file unless asked."""

@@ -50,3 +50,7 @@ class CreatureDef:
     bodies: list[BodyDef] = field(default_factory=list)
     path: str | None = None
     format: int = FORMAT_VERSION
+    #: The glTF rig the creature was made from (``menagerie creatures from-gltf``):
+    #: ``{"file": ..., "skin": N, "scale": K}``, the file relative to the creature file's
+    #: folder; an export then carries the rig's own mesh. None for any other creature.
+    source: dict | None = None

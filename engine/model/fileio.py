@@ -33,7 +33,7 @@ from engine.errors import CreatureError
 from engine.model.definition import FORMAT_VERSION, BodyDef, CreatureDef
 
 _BODY_FIELDS = ("name", "parent", "caps", "pos", "rot", "joint", "extents")
-_TOP_FIELDS = ("format", "name", "description", "bodies")
+_TOP_FIELDS = ("format", "name", "description", "source", "bodies")
 
 
 # -- YAML with line numbers --------------------------------------------------------------
@@ -184,7 +184,40 @@ def parse_creature_text(text: str, path: str | None = None) -> CreatureDef:
         raise CreatureError("'bodies' must be a non-empty list", path=path, line=bodies_item.line,
                             field="bodies")
     bodies = [_parse_body(item, path) for item in bodies_item.value]
-    return CreatureDef(name=name, description=description, bodies=bodies, path=path)
+    source = _parse_source(top["source"], path) if "source" in top else None
+    return CreatureDef(name=name, description=description, bodies=bodies, path=path, source=source)
+
+
+def _parse_source(item: _Located, path: str | None) -> dict:
+    """``source: {file: rig.glb, skin: 0, scale: 1.0}``: the glTF rig the creature came from."""
+    if not isinstance(item.value, dict):
+        raise CreatureError("'source' must be a mapping with 'file', 'skin' and 'scale'", path=path,
+                            line=item.line, field="source")
+    known = ("file", "skin", "scale")
+    for key, sub in item.value.items():
+        if key not in known:
+            raise CreatureError(f"unknown field '{key}' in 'source' (known: {', '.join(known)})", path=path,
+                                line=sub.line, field=f"source.{key}")
+    out = {}
+    f = item.value.get("file")
+    if f is None or not isinstance(f.value, str) or not f.value:
+        raise CreatureError("'source.file' must be the rig's file name", path=path,
+                            line=(f or item).line, field="source.file")
+    out["file"] = f.value
+    skin = item.value.get("skin")
+    if skin is not None:
+        if not isinstance(skin.value, int) or isinstance(skin.value, bool) or skin.value < 0:
+            raise CreatureError(f"'source.skin' must be a skin index (0 or more), got {skin.value!r}", path=path,
+                                line=skin.line, field="source.skin")
+        out["skin"] = skin.value
+    scale = item.value.get("scale")
+    if scale is not None:
+        v = scale.value
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (v > 0 and v < float("inf")):
+            raise CreatureError(f"'source.scale' must be a positive number, got {v!r}", path=path,
+                                line=scale.line, field="source.scale")
+        out["scale"] = float(v)
+    return out
 
 
 def _parse_body(item: _Located, path: str | None) -> BodyDef:
@@ -256,6 +289,13 @@ def creature_def_to_text(cdef: CreatureDef) -> str:
     lines = [f"format: {FORMAT_VERSION}", f"name: {_yaml_str(cdef.name)}"]
     if cdef.description:
         lines.append(f"description: {_yaml_str(cdef.description)}")
+    if cdef.source:
+        lines.append("source:")
+        lines.append(f"  file: {_yaml_str(str(cdef.source['file']))}")
+        if "skin" in cdef.source:
+            lines.append(f"  skin: {int(cdef.source['skin'])}")
+        if "scale" in cdef.source:
+            lines.append(f"  scale: {float(cdef.source['scale'])!r}")
     lines.append("bodies:")
     for b in cdef.bodies:
         lines.append(f"  - name: {_yaml_str(b.name)}")
