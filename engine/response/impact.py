@@ -61,6 +61,7 @@ from engine.physics import (
 from engine.physics.world import PhysicsState, rotvec_between
 from engine.response.library import MotionLibrary, library_for
 from engine.response.search import SearchResult, search, window_features
+from engine.response.stand import Stander, StandParams
 
 PHASES = ("idle", "burst", "transition", "blend", "settle")
 
@@ -94,6 +95,12 @@ class ImpactParams:
     contact_dv: float = 4.0          # m/s: an instantaneous hit is spread so the struck body alone gains this per frame
     contact_max: float = 0.1         # s: ... over at most this long (a shove, not a punch, beyond it)
     resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
+    # The standing controller (engine.response.stand) in both simulations: gravity
+    # compensation always, the balance term while the servos hold the interrupted pose (it
+    # fades out over the transition, so a found fall is not held up). None: the servos alone
+    # (the first version: unhit, the humanoid's lookahead fell by 1 s, so taps read as falls).
+    stand: StandParams | None = StandParams()
+    stand_live: bool = True          # the controller in Simulation 2 too (False: the lookahead only)
 
 
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -160,6 +167,10 @@ class ImpactResponse:
         self.model1, self.model2 = _models(c, p)
         self.sim2 = PhysicsState(self.model2)
         self.sim1 = PhysicsState(self.model1)
+        self.stand1 = self.stand2 = None
+        if p.stand is not None:
+            self.stand1 = Stander(self.model1, p.stand, height=c.height)
+            self.stand2 = Stander(self.model2, p.stand, height=c.height)
         self.library = library if library is not None else library_for(c)
         self.phase = "idle"
         self.clip = None              #: the Animation the response re-enters (None before the search)
@@ -179,6 +190,7 @@ class ImpactResponse:
         self._hold_rot = np.zeros((self.model1.njoint, 4))
         self._found_rot = np.zeros((self.model1.njoint, 4))
         self._armed = False
+        self._balance = 1.0
         self._settle_at = None
         self._settle_d = np.zeros(3)
         self._plan_time = 0.0
@@ -271,6 +283,11 @@ class ImpactResponse:
         # Simulation 1 restarts from the live state (a second hit re-plans from here)
         _copy_state(self.sim1, self.sim2)
         self._sim1_contact = [b, J / span, point, span]
+        if self.stand1 is not None:
+            # both balance references from the live state the hit lands on
+            self.stand1.reset()
+            self.stand2.reset()
+        self._balance = 1.0
         self._sim1_count = 0
         self._sim1_done = 0.0
         self._record_sim1()
@@ -294,6 +311,8 @@ class ImpactResponse:
             if self.phase == "transition":
                 self._transition_targets()
             self._apply_contacts(self.model2, self.sim2, self._contact, dt)
+            if self.stand2 is not None and p.stand_live:
+                self.stand2.apply(self.sim2, self._balance)
             sub = max(1, int(math.ceil(dt / p.substep)))
             step(self.model2, self.sim2, dt, substeps=sub)
             if self.phase == "transition" and self._armed:
@@ -346,6 +365,11 @@ class ImpactResponse:
                 self._apply_contacts(self.model1, self.sim1, [self._sim1_contact], self._frame_dt)
                 if self._sim1_contact[3] <= 0:
                     self._sim1_contact = None
+            else:
+                self.sim1.body_force[:] = 0.0
+                self.sim1.body_torque[:] = 0.0
+            if self.stand1 is not None:
+                self.stand1.apply(self.sim1)
             step(self.model1, self.sim1, self._frame_dt, substeps=sub)
             self._record_sim1()
             self.sim1_trace.append((self.since_start - self.time + (self._sim1_count - 1) * self._frame_dt,
@@ -406,6 +430,7 @@ class ImpactResponse:
         span = max(self._handoff - self._plan_time, 1e-6)
         u = min(max((self.time - self._plan_time) / span, 0.0), 1.0)
         u = u * u * (3.0 - 2.0 * u)
+        self._balance = 1.0 - u
         servo_targets_from_pose(self.model2, lib.rot[f], self._found_rot)
         _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
 
