@@ -69,7 +69,7 @@ def build(seconds: float):
     chars += [a, v]
     labels += ["attacker", "victim"]
     strike = Strike(a, v, ["hand_r", "forearm_r"])
-    state = {"t": 0.0, "punched": False, "first": None}
+    state = {"t": 0.0, "punched": False, "first": None, "fig": None}
 
     def step(dt):
         t0 = state["t"]
@@ -79,6 +79,8 @@ def build(seconds: float):
             for when, body, d, speed in HITS:
                 if t0 <= when < t1:
                     b = 0 if body == "root" else min(int(body * c.nbody), c.nbody - 1)
+                    if c.name == "humanoid" and ch.response is not None and state["fig"] is None:
+                        state["fig"] = _trace(ch.response)      # the first response, before the next hit
                     d = np.array([d[0], d[1], 0.0]) / np.hypot(*d)
                     ch.hit(b, d * speed * chain_mass(c, b))
                     if state["first"] is None and c.name == "humanoid":
@@ -94,26 +96,32 @@ def build(seconds: float):
     return chars, labels, step, state
 
 
-def _figure1(resp, out):
+def _trace(resp):
+    return {"root": list(resp.root_trace), "sim1": list(resp.sim1_trace), "handoff": resp._handoff,
+            "delay": resp.params.reaction_delay, "name": resp.char.creature.name,
+            "clip": resp.clip.name if resp.clip else "its gait"}
+
+
+def _figure1(tr, out):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    t = np.array([r[0] for r in resp.root_trace])
-    z = np.array([r[2] for r in resp.root_trace])
-    phys = np.array([r[1] in ("burst", "transition") for r in resp.root_trace])
-    s1 = np.array(resp.sim1_trace).reshape(-1, 2)
+    t = np.array([r[0] for r in tr["root"]])
+    z = np.array([r[2] for r in tr["root"]])
+    phys = np.array([r[1] in ("burst", "transition") for r in tr["root"]])
+    s1 = np.array(tr["sim1"]).reshape(-1, 2)
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(s1[:, 0], s1[:, 1], label="Simulation 1 (lookahead, friction 1.0)", color="tab:blue")
     ax.plot(t[phys], z[phys], ".", ms=3, label="Simulation 2 (live, friction 0.5)", color="tab:green")
     ax.plot(t, z, label="displayed (blended)", color="tab:red", lw=1, ls="--")
     ax.axvline(0, color="k", lw=0.8, label="impact")
-    ax.axvline(resp.params.reaction_delay, color="gray", ls=":", label="reaction delay")
-    ax.axvline(resp._handoff, color="purple", ls="-.", label="hand-off")
+    ax.axvline(tr["delay"], color="gray", ls=":", label="reaction delay")
+    ax.axvline(tr["handoff"], color="purple", ls="-.", label="hand-off")
     ax.set_xlabel("time after the impact (s)")
     ax.set_ylabel("root height (m)")
-    ax.set_title(f"{resp.char.creature.name}: re-entered '{resp.clip.name if resp.clip else 'its gait'}'")
+    ax.set_title(f"{tr['name']}: hit on the root at 1.2 m/s, re-entered '{tr['clip']}'")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
@@ -160,8 +168,9 @@ def run_impact_demo(headless: bool = True, out_dir: str = "out/demo", seconds: f
                        duration=int(2000 / fps), loop=0)
     except ImportError:
         print("menagerie impact demo: pillow is not installed (pip install -e '.[media]'): no GIF")
-    if state["first"] is not None and state["first"].sim1_trace:
-        _figure1(state["first"], os.path.join(out_dir, "impacts_figure1.png"))
+    fig = state["fig"] or (_trace(state["first"]) if state["first"] is not None else None)
+    if fig is not None and fig["sim1"]:
+        _figure1(fig, os.path.join(out_dir, "impacts_figure1.png"))
     print(f"menagerie impact demo: wrote {out_dir}/impacts_contact_sheet.png, impacts.gif, impacts_figure1.png "
           f"in {time.perf_counter() - t0:.1f} s")
     return 0
