@@ -56,7 +56,8 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 #: What the demo writes into --out (the gait demo writes into --out/gaits).
-DEMO_OUTPUTS = ("contact_sheet.png", "frame_*.png", "demo.gif", "gaits", "gait_contact_sheet.png")
+DEMO_OUTPUTS = ("contact_sheet.png", "frame_*.png", "demo.gif", "gaits", "gait_contact_sheet.png",
+                "impacts_frame_*.png", "impacts_contact_sheet.png", "impacts.gif", "impacts_figure1.png")
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -70,6 +71,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if headless:
         output_dir(args.out, args.force, writes=DEMO_OUTPUTS)
     compiling.notice("viewer")
+    if args.impacts:
+        from authoring.impact_demo import run_impact_demo
+
+        if not headless:
+            print("menagerie demo --impacts: renders offscreen (PNGs, a GIF, the Figure-1 plot)")
+            output_dir(args.out, args.force, writes=DEMO_OUTPUTS)
+        return run_impact_demo(headless=True, out_dir=args.out, seconds=max(args.seconds, 4.5))
     if args.gaits:
         from authoring.gait_demo import run_gait_demo
 
@@ -120,6 +128,9 @@ def add_tool_commands(sub) -> None:
     demo.add_argument("--seconds", type=float, default=4.0, help="headless clip length in seconds (>= 0.1)")
     demo.add_argument("--force", action="store_true", help="replace an earlier demo's output in --out")
     demo.add_argument("--gaits", action="store_true", help="the gait demo: creatures walking on rolling ground")
+    demo.add_argument("--impacts", action="store_true",
+                      help="the impact demo: creatures hit from several directions and in series, a punch "
+                           "between two humanoids, the Figure-1 plot (offscreen)")
     demo.set_defaults(func=cmd_demo)
 
     view = sub.add_parser("view", help="look at a creature file")

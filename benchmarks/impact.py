@@ -32,7 +32,7 @@ import engine  # noqa: E402
 from engine.model import build_creature, random_creature_def  # noqa: E402
 from engine.physics.world import rotvec_between  # noqa: E402
 from engine.response import search as S  # noqa: E402
-from engine.response.impact import ImpactResponse, chain_mass  # noqa: E402
+from engine.response.impact import ImpactParams, ImpactResponse, chain_mass  # noqa: E402
 from engine.response.library import MotionLibrary, default_clips, library_for  # noqa: E402
 from engine.runtime import Character  # noqa: E402
 
@@ -164,9 +164,17 @@ def main() -> None:
     ap.add_argument("--random", type=int, default=5, help="random creatures (seeds 0..N-1)")
     ap.add_argument("--hits", type=int, default=4, help="single hits per creature")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--stand", choices=("on", "off", "lookahead"), default="on",
+                    help="the standing controller in both simulations, in none, or in the lookahead only")
+    ap.add_argument("--creatures", nargs="*", default=None,
+                    help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     paths = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))[: args.library]
+    if args.creatures is not None:
+        paths = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in args.creatures]
+    params = {"on": None, "off": ImpactParams(stand=None),
+              "lookahead": ImpactParams(stand_live=False)}[args.stand]
     creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s))
                                                            for s in range(args.random)]
     hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
@@ -186,7 +194,7 @@ def main() -> None:
         library_for(c)
         for n, count in ((1, args.hits), (2, max(1, args.hits // 2)), (5, max(1, args.hits // 4))):
             for _ in range(count):
-                ok, why = trial(c, rng, n, stats)
+                ok, why = trial(c, rng, n, stats, params)
                 results[n].append(ok)
                 if not ok:
                     failures.append(f"{c.name} x{n}: {why}")

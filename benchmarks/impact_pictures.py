@@ -6,7 +6,8 @@ reaction delay and the hand-off marked).
 
 Writes OUT_DIR/filmstrip_<creature>.png (one creature standing, shoved on its root along
 -X at t = 0 with 1.5 m/s worth of its mass; frames from just before the hit to 1.5 s
-after) for a humanoid, a dog and a random creature, and OUT_DIR/figure1.png.
+after) for a humanoid, a dog and a random creature, OUT_DIR/figure1.png, and
+OUT_DIR/strike_humanoids.png (a punch landing on another humanoid, engine.response.strike).
 """
 
 from __future__ import annotations
@@ -55,6 +56,45 @@ def filmstrip(c, out):
     return render_png(scene, out, 1800, 520), ch.response
 
 
+def strike_strip(out):
+    """A humanoid's punch landing on another (engine.response.strike): both in one frame
+    per time, the victim's reaction and the attacker's recoil."""
+    from engine.response.strike import Strike
+
+    hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
+    idle = engine.load_animation(os.path.join(ROOT, "animations", "idle_breathe.yaml"))
+    a, v = Character(hum), Character(hum)
+    v.set_placement(position=(0.6, 0, 0), heading=np.pi, teleport=True)
+    a.play(idle)
+    v.play(idle)
+    for _ in range(5):
+        a.tick(DT)
+        v.tick(DT)
+    a.set_target("foe", v.world_positions[hum.body("spine2")])
+    a.play(engine.load_animation(os.path.join(ROOT, "animations", "punch.yaml")), fade=0.1)
+    st = Strike(a, v, ["hand_r", "forearm_r"])
+    actors, landed = [], None
+    shots = (0.3, 0.45, 0.5, 0.6, 0.8, 1.1, 1.6, 2.4)
+    for k in range(int(2.5 / DT)):
+        a.tick(DT)
+        v.tick(DT)
+        if st.tick(DT) is not None and landed is None:
+            landed = k * DT
+        t = k * DT
+        if any(abs(t - x) < DT / 2 for x in shots):
+            i = len(actors) // 2
+            off = (0.0, 1.6 * max(hum.size) * i, 0.0)
+            ph = v.response.phase if v.response else "idle"
+            for ch, lab in ((a, f"{t:.2f}s"), (v, ph)):
+                actor = sc.Actor(hum, label=lab, offset=off)
+                actor.set_pose(ch.world_positions, ch.world_rotations)
+                actors.append(actor)
+    clip = v.response.clip.name if v.response and v.response.clip else "-"
+    scene = sc.Scene(actors=actors, caption=f"punch lands at {landed:.2f} s; the victim re-enters '{clip}', "
+                                            f"the attacker recoils onto its punch")
+    return render_png(scene, out, 1800, 520)
+
+
 def figure1(resp, out):
     import matplotlib
 
@@ -101,6 +141,7 @@ def main() -> None:
         first = first or resp
         print(path)
     print(figure1(first, os.path.join(a.out, "figure1.png")))
+    print(strike_strip(os.path.join(a.out, "strike_humanoids.png")))
 
 
 if __name__ == "__main__":

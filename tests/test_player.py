@@ -89,6 +89,35 @@ def test_queue_starts_when_the_current_clip_ends():
     assert c.playing
 
 
+@pytest.mark.parametrize("fade_out", [None, 0.0, 0.05])
+def test_queued_clip_cross_fades_with_a_clip_played_without_fade(fade_out):
+    # play(fade=0) makes the clip's fade-out 0 too: the queued clip must still cross-fade
+    # (the ending clip fades out over the queued clip's fade-in), never a frame of no weight
+    p = Player()
+    a = p.play(clip("a", length=0.5), fade=0.0, fade_out=fade_out)
+    b = p.queue(clip("b", length=1.0), fade=0.2)
+    sums, wb = [], []
+    for _ in range(50):
+        p.advance(1 / 60)
+        w = {h.animation.name: wt for h, _, wt in p.active()}
+        sums.append(sum(w.values()))
+        wb.append(w.get("b", 0.0))
+    assert min(sums) > 0.99, min(sums)
+    assert a.finished and b.playing
+    assert max(abs(x - y) for x, y in zip(wb, wb[1:], strict=False)) < 0.15   # b fades in, no jump
+
+
+def test_loop_hands_over_to_a_queued_clip_over_its_fade_in():
+    p = Player()
+    p.play(clip("a", loop=True, length=0.5), fade=0.0)
+    p.queue(clip("b", length=1.0), fade=0.2, fade_out=0.0)
+    sums = []
+    for _ in range(60):
+        p.advance(1 / 60)
+        sums.append(sum(wt for _, _, wt in p.active()))
+    assert min(sums) > 0.99, min(sums)
+
+
 def test_layers_and_weights():
     p = Player()
     base = p.play(clip("base", loop=True), fade=0.0)

@@ -179,6 +179,7 @@ class Player:
             self._start_queued(q)
         else:
             self.queues[layer].append(q)
+            self._cover_queue_fade(layer)
         return handle
 
     def stop(self, handle: PlayHandle, fade: float = 0.2) -> None:
@@ -242,13 +243,24 @@ class Player:
                 self._fire_events(h, float(a.prev_time[0, s]), float(a.time[0, s]), bool(flags & FLAG_WRAPPED),
                                   float(a.speed[0, s]), float(a.length[0, s]))
             if flags & FLAG_ENDING and self.queues[h.layer]:
-                self._start_queued(self.queues[h.layer].popleft())
+                q = self.queues[h.layer].popleft()
+                self._start_queued(q)
+                if q.fade > 0.0 and q.handle.slot >= 0:
+                    # the ending clip already took this frame's step of its fade-out: the
+                    # queued one takes the complement, so the weights sum to 1 from now on
+                    n = q.handle.slot
+                    f = min(max(1.0 - float(a.fade[0, s]), 0.0), 1.0)
+                    a.fade[0, n] = f
+                    a.effective[0, n] = (a.layer_weight[0, h.layer] * a.weight[0, n] * f * f * (3.0 - 2.0 * f))
+                self._cover_queue_fade(h.layer)
             elif flags & FLAG_WRAPPED and self.queues[h.layer] and not a.stopping[0, s]:
                 # A looping clip never ends: what is queued behind it takes over at the
-                # end of its current cycle, cross-fading over the queued clip's fades.
+                # end of its current cycle, cross-fading over the queued clip's fade-in
+                # (the loop fades out while the queued clip fades in: their weights sum to 1).
                 q = self.queues[h.layer].popleft()
-                self._stop_slot(s, q.fade_out)
+                self._stop_slot(s, q.fade)
                 self._start_queued(q)
+                self._cover_queue_fade(h.layer)
             if flags & FLAG_FREED:
                 h.slot = -1
                 h.finished = True
@@ -324,6 +336,26 @@ class Player:
         self._changed()
         # Events keyed at the very start fire on the first frame.
         handle._events_from_start = start_time == 0.0  # type: ignore[attr-defined]
+
+    def _cover_queue_fade(self, layer: int) -> None:
+        """A one-shot clip with a clip queued behind it fades out over at least the queued
+        clip's fade-in, so the two cross-fade (weights summing to 1). Without it a clip
+        played with ``fade=0`` (whose fade-out defaults to 0) was cut at its end while the
+        queued clip faded in from no weight: a frame with almost no clip weight on the
+        layer, the rest pose's goals, and a knee flipped 2 rad (issue 13, the dog after a
+        fall)."""
+        if not self.queues[layer]:
+            return
+        fade = self.queues[layer][0].fade
+        if fade <= 0.0:
+            return
+        a = self.arrays
+        for s, h in enumerate(self.handles):
+            if h is None or h.layer != layer or a.stopping[0, s] or a.loop[0, s]:
+                continue
+            rate = float(a.fade_out_rate[0, s])
+            if rate <= 0.0 or rate > 1.0 / fade:
+                a.fade_out_rate[0, s] = 1.0 / fade
 
     def _start_queued(self, q: _Queued) -> None:
         self._start(q.handle, q.weight, q.fade, q.fade_out, q.loop, q.speed, 0.0)

@@ -59,8 +59,9 @@ from engine.physics import (
     step,
 )
 from engine.physics.world import PhysicsState, rotvec_between
-from engine.response.library import MotionLibrary, library_for
+from engine.response.library import RATE, WINDOW, MotionLibrary, library_for
 from engine.response.search import SearchResult, search, window_features
+from engine.response.stand import Stander, StandParams
 
 PHASES = ("idle", "burst", "transition", "blend", "settle")
 
@@ -94,6 +95,17 @@ class ImpactParams:
     contact_dv: float = 4.0          # m/s: an instantaneous hit is spread so the struck body alone gains this per frame
     contact_max: float = 0.1         # s: ... over at most this long (a shove, not a punch, beyond it)
     resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
+    # The standing controller (engine.response.stand) in both simulations: gravity
+    # compensation always, the balance term while the servos hold the interrupted pose (it
+    # fades out over the transition, so a found fall is not held up). None: the servos alone
+    # (the first version: unhit, the humanoid's lookahead fell by 1 s, so taps read as falls).
+    stand: StandParams | None = StandParams()
+    # the controller in Simulation 2 too (False: the lookahead only). Measured with
+    # benchmarks/impact.py --library 3 --random 2 --hits 4 (65 hits; single / train of 2 / of 5):
+    # lookahead only 0.65 / 0.80 / 0.80, both simulations 0.55 / 0.40 / 0.00 (hand-back turns
+    # median 0.11 against 0.20 rad). With it off, the humanoid's hits in series in
+    # tests/test_impact.py turn ears and eyes 0.65-0.78 rad in the blend out of a fall (xfail).
+    stand_live: bool = False
 
 
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -160,7 +172,21 @@ class ImpactResponse:
         self.model1, self.model2 = _models(c, p)
         self.sim2 = PhysicsState(self.model2)
         self.sim1 = PhysicsState(self.model1)
-        self.library = library if library is not None else library_for(c)
+        # Locked leaves (see _models) are shown in the animated pose relative to their parent:
+        # the physics holds them at their rest relative rotation, and writing that out snapped
+        # the humanoid's hand 1.8 rad in the first physical frame of a punch (its fist turned 80
+        # degrees by the clip).
+        jl = np.asarray(self.model2.joint_locked)
+        self._locked = np.array([int(self.model2.joint_child[j]) for j in range(self.model2.njoint) if jl[j]], int)
+        self._locked_parent = np.array([int(self.model2.joint_parent[j]) for j in range(self.model2.njoint)
+                                        if jl[j]], int)
+        self._phys_pos = np.zeros((c.nbody, 3))
+        self._phys_rot = np.zeros((c.nbody, 4))
+        self.stand1 = self.stand2 = None
+        if p.stand is not None:
+            self.stand1 = Stander(self.model1, p.stand, height=c.height)
+            self.stand2 = Stander(self.model2, p.stand, height=c.height)
+        self._library = library       # built on the first search (a recoil needs none)
         self.phase = "idle"
         self.clip = None              #: the Animation the response re-enters (None before the search)
         self.clip_time = 0.0          #: the matched time in it, s
@@ -179,6 +205,7 @@ class ImpactResponse:
         self._hold_rot = np.zeros((self.model1.njoint, 4))
         self._found_rot = np.zeros((self.model1.njoint, 4))
         self._armed = False
+        self._balance = 1.0
         self._settle_at = None
         self._settle_d = np.zeros(3)
         self._plan_time = 0.0
@@ -191,12 +218,21 @@ class ImpactResponse:
         self._off_angvel = np.zeros((n, 3))
         self._blend_t = 0.0
         self._handoff = 0.0
-        self._frame_dt = 1.0 / self.library.rate
-        nrec = int(math.ceil((p.match_max + p.contact_push) / self._frame_dt)) + self.library.window + 1
+        rate, window = (RATE, WINDOW) if library is None else (library.rate, library.window)
+        self._frame_dt = 1.0 / rate
+        self._recoil = 0.0
+        nrec = int(math.ceil((p.match_max + p.contact_push) / self._frame_dt)) + window + 1
         self._sim1_pos = np.zeros((nrec, n, 3))
         self._sim1_rot = np.zeros((nrec, n, 4))
         self.root_trace: list = []    # (time since start, phase, root z) per tick, for plots
         self.sim1_trace: list = []
+
+    @property
+    def library(self) -> MotionLibrary:
+        """The creature's motion library (``library_for``), built on first use."""
+        if self._library is None:
+            self._library = library_for(self.char.creature)
+        return self._library
 
     @property
     def reacting(self) -> bool:
@@ -204,7 +240,11 @@ class ImpactResponse:
 
     # -- the hit -----------------------------------------------------------------------
 
-    def hit(self, body, impulse, point=None, duration: float = 0.0) -> None:
+    def hit(self, body, impulse, point=None, duration: float = 0.0, *, recoil: float = 0.0) -> None:
+        """``recoil`` > 0: the hit is the reaction an attacker's strike gets back
+        (``engine.response.strike``): the body is physical for ``recoil`` seconds, then blends
+        back onto the clip that kept playing underneath, with no search; a running full
+        response takes the hit as an ordinary one."""
         c = self.char.creature
         if isinstance(body, str):
             if not c.has_body(body):
@@ -230,15 +270,18 @@ class ImpactResponse:
                 raise ImpactError(f"hit on '{name}': point must be 3 finite numbers, got {point!r}")
         if not (isinstance(duration, (int, float)) and math.isfinite(duration) and 0.0 <= duration <= 5.0):
             raise ImpactError(f"hit on '{name}': duration must be 0..5 s, got {duration!r}")
+        if not (isinstance(recoil, (int, float)) and math.isfinite(recoil) and 0.0 <= recoil <= 1.0):
+            raise ImpactError(f"hit on '{name}': recoil must be 0..1 s, got {recoil!r}")
         # -- validated; from here the hit is applied ---------------------------------------
         ch = self.char
         p = self.params
         if self.phase in ("idle", "blend", "settle"):
             # the displayed pose and its finite-difference velocity become the physics state
             dt = ch._stack.last_dt
-            s = state_from_kinematic(self.model2, ch.world_positions, ch.world_rotations, ch._prev_world_pos,
-                                     ch._prev_world_rot, dt)
+            s = state_from_kinematic(self.model2, *self._lock_leaves(ch.world_positions, ch.world_rotations),
+                                     *self._lock_leaves(ch._prev_world_pos, ch._prev_world_rot), dt)
             _copy_state(self.sim2, s)
+            self._hold_leaves(ch.world_positions, ch.world_rotations)
             if self.phase == "idle":
                 loops = [h.animation for h in ch.player.handles if h is not None and h.animation.loop]
                 self._resume = loops[0] if loops else None
@@ -246,6 +289,10 @@ class ImpactResponse:
                 self.root_trace = []
                 self.sim1_trace = []
             self._fade_handle = None
+        np.copyto(self._prev_anim_pos, ch.world_positions)
+        np.copyto(self._prev_anim_rot, ch.world_rotations)
+        full = self.phase in ("burst", "transition") and self._recoil == 0.0
+        self._recoil = 0.0 if (recoil <= 0.0 or full) else float(recoil)
         self.phase = "burst"
         self._settle_at = None
         self.hits += 1
@@ -271,6 +318,11 @@ class ImpactResponse:
         # Simulation 1 restarts from the live state (a second hit re-plans from here)
         _copy_state(self.sim1, self.sim2)
         self._sim1_contact = [b, J / span, point, span]
+        if self.stand1 is not None:
+            # both balance references from the live state the hit lands on
+            self.stand1.reset()
+            self.stand2.reset()
+        self._balance = 1.0
         self._sim1_count = 0
         self._sim1_done = 0.0
         self._record_sim1()
@@ -287,24 +339,29 @@ class ImpactResponse:
         self.time += dt
         self.since_start += dt
         if self.phase in ("burst", "transition"):
-            if self.phase == "burst":
+            if self._recoil > 0.0:
+                pass                                    # a recoil: no lookahead, no search
+            elif self.phase == "burst":
                 self._advance_sim1(dt)
                 if self.time >= p.reaction_delay:
                     self._plan()
             if self.phase == "transition":
                 self._transition_targets()
             self._apply_contacts(self.model2, self.sim2, self._contact, dt)
+            if self.stand2 is not None and p.stand_live:
+                self.stand2.apply(self.sim2, self._balance)
             sub = max(1, int(math.ceil(dt / p.substep)))
             step(self.model2, self.sim2, dt, substeps=sub)
-            if self.phase == "transition" and self._armed:
+            if (self.phase == "transition" and self._armed) or (self._recoil > 0.0 and self.time >= self._recoil):
                 self._start_blend(anim_pos, anim_rot, dt)
             else:
                 if self.phase == "transition" and self.time + dt >= self._handoff - 1e-9:
                     self._arm(dt)
                 np.copyto(self._prev_anim_pos, anim_pos)
                 np.copyto(self._prev_anim_rot, anim_rot)
-                np.copyto(anim_pos, self.sim2.body_pos)
-                np.copyto(anim_rot, self.sim2.body_rot)
+                self._physics_pose(anim_pos, anim_rot)
+                np.copyto(anim_pos, self._phys_pos)
+                np.copyto(anim_rot, self._phys_rot)
         elif self.phase in ("blend", "settle"):
             if self._settle_at is not None and self.time + dt >= self._settle_at:
                 self._settle()
@@ -346,6 +403,11 @@ class ImpactResponse:
                 self._apply_contacts(self.model1, self.sim1, [self._sim1_contact], self._frame_dt)
                 if self._sim1_contact[3] <= 0:
                     self._sim1_contact = None
+            else:
+                self.sim1.body_force[:] = 0.0
+                self.sim1.body_torque[:] = 0.0
+            if self.stand1 is not None:
+                self.stand1.apply(self.sim1)
             step(self.model1, self.sim1, self._frame_dt, substeps=sub)
             self._record_sim1()
             self.sim1_trace.append((self.since_start - self.time + (self._sim1_count - 1) * self._frame_dt,
@@ -406,6 +468,7 @@ class ImpactResponse:
         span = max(self._handoff - self._plan_time, 1e-6)
         u = min(max((self.time - self._plan_time) / span, 0.0), 1.0)
         u = u * u * (3.0 - 2.0 * u)
+        self._balance = 1.0 - u
         servo_targets_from_pose(self.model2, lib.rot[f], self._found_rot)
         _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
 
@@ -462,29 +525,89 @@ class ImpactResponse:
             ch.stop(fade=0.0)
         self._settle_at = None
 
+    def _lock_leaves(self, pos, rot):
+        """A copy of a pose with the locked leaves at their rest rotation on their parents, as
+        the physics holds them (a start the lock does not have to correct: with the fist of a
+        punch turned 80 degrees, the correction turned the forearm 0.5 rad in a frame)."""
+        if not self._locked.size:
+            return pos, rot
+        m = self.model2
+        pos, rot = pos.copy(), rot.copy()
+        j = np.asarray(m.body_joint)[self._locked]
+        b, p = self._locked, self._locked_parent
+        rot[b] = _qmul(rot[p], np.asarray(m.joint_rest_rot)[j])
+        pos[b] = (pos[p] + _qrot(rot[p], np.asarray(m.joint_anchor_parent)[j])
+                  - _qrot(rot[b], np.asarray(m.joint_anchor_child)[j]))
+        return pos, rot
+
+    def _hold_leaves(self, pos, rot) -> None:
+        """The locked leaves' transforms relative to their parents in the displayed pose at
+        the impact, kept while the response is physical."""
+        if self._locked.size:
+            b, p = self._locked, self._locked_parent
+            self._leaf_rel = _qmul(_qconj(rot[p]), rot[b])
+            self._leaf_off = _qrot(_qconj(rot[p]), pos[b] - pos[p])
+
+    def _physics_pose(self, anim_pos, anim_rot) -> None:
+        """Simulation 2's pose into ``_phys_pos/_phys_rot``, the locked leaves placed on their
+        simulated parents as they sat on them at the impact (following the animation instead
+        jumped them when the found clip started; the hand-off's offset decay takes them back)."""
+        np.copyto(self._phys_pos, self.sim2.body_pos)
+        np.copyto(self._phys_rot, self.sim2.body_rot)
+        if self._locked.size:
+            b, p = self._locked, self._locked_parent
+            qp = self.sim2.body_rot[p]
+            self._phys_rot[b] = _qmul(qp, self._leaf_rel)
+            self._phys_pos[b] = self.sim2.body_pos[p] + _qrot(qp, self._leaf_off)
+
     def _start_blend(self, anim_pos, anim_rot, dt: float) -> None:
         """Hand-off: the offset between physics and animation, and its velocity."""
         s = self.sim2
-        np.subtract(s.body_pos, anim_pos, out=self._off_pos)
-        # the found clip's velocity from the library (its first frame has no previous one)
-        lib = self.library
-        f = self.match.lib_frame
-        if f > 0 and lib.clip_of[f - 1] == lib.clip_of[f]:
+        self._physics_pose(anim_pos, anim_rot)
+        np.subtract(self._phys_pos, anim_pos, out=self._off_pos)
+        # the found clip's velocity from the library (its first frame has no previous one);
+        # a recoil's, from the clip that kept playing (last tick's animated pose)
+        if self.match is None:
+            anim_vel = (anim_pos - self._prev_anim_pos) / max(dt, 1e-9)
+            f = -1
+        else:
+            lib = self.library
+            f = self.match.lib_frame
+        if f < 0:
+            pass
+        elif f > 0 and lib.clip_of[f - 1] == lib.clip_of[f]:
             v = (lib.pos[f] - lib.pos[f - 1]) * lib.rate
             c, sn = math.cos(self.match.place_yaw), math.sin(self.match.place_yaw)
             anim_vel = np.stack([c * v[:, 0] - sn * v[:, 1], sn * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
         else:
             anim_vel = np.zeros_like(anim_pos)
         np.subtract(s.body_linvel, anim_vel, out=self._off_vel)
-        self._off_rot[:] = rotvec_between(anim_rot, s.body_rot)
+        self._off_rot[:] = rotvec_between(anim_rot, self._phys_rot)
         # The angular-velocity offset is not carried: the animated pose's finite-difference
         # angular velocity at the hand-off tick includes the found clip's fade and the
         # jiggles' springs, and carrying it flipped ears 0.6 rad in a frame. Rotations are
         # continuous at the hand-off; their rate is the animation's from then on.
         self.phase = "blend"
         self._blend_t = 0.0
-        np.copyto(anim_pos, s.body_pos)
-        np.copyto(anim_rot, s.body_rot)
+        np.copyto(anim_pos, self._phys_pos)
+        np.copyto(anim_rot, self._phys_rot)
+
+
+def _qmul(a, b):
+    aw, av = a[..., :1], a[..., 1:]
+    bw, bv = b[..., :1], b[..., 1:]
+    return np.concatenate([aw * bw - np.sum(av * bv, axis=-1, keepdims=True),
+                           aw * bv + bw * av + np.cross(av, bv)], axis=-1)
+
+
+def _qconj(q):
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def _qrot(q, v):
+    w, u = q[..., :1], q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
 
 
 def _slerp_into(a: np.ndarray, b: np.ndarray, u: float, out: np.ndarray) -> None:

@@ -1,0 +1,101 @@
+"""The response's standing controller (engine.response.stand): the lookahead stands unhit,
+recovers from a light push, and still topples under a knock-down."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import engine
+from engine.model import build_creature, random_creature_def
+from engine.physics import servo_targets_from_pose, state_from_kinematic, step
+from engine.response.impact import ImpactParams, _models
+from engine.response.stand import Stander
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+IDLE = engine.load_animation(os.path.join(ROOT, "animations", "idle_breathe.yaml"))
+
+
+def _creature(name):
+    if name.startswith("random_"):
+        return build_creature(random_creature_def(int(name[7:])))
+    return engine.load_creature(os.path.join(ROOT, "creatures", f"{name}.yaml"))
+
+
+def _lookahead(c, stand: bool, push: float = 0.0, lift: float = 0.0):
+    """Simulation 1's model holding the idle pose for 1 s at 30 Hz (8 substeps); ``push``
+    m/s given to the whole creature along +x over the first 0.1 s. Root heights (fraction
+    of the creature's height) at 0, 0.2, 0.5, 1 s, the root's ground-plane travel / height,
+    and the stander."""
+    ch = engine.Character(c)
+    try:
+        ch.play(IDLE)
+    except engine.MenagerieError:
+        pass
+    for _ in range(10):
+        ch.tick(1 / 60)
+    m1 = _models(c, ImpactParams())[0]
+    pos = ch.world_positions.copy()
+    pos[:, 2] += lift
+    s = state_from_kinematic(m1, pos, ch.world_rotations)
+    servo_targets_from_pose(m1, ch.world_rotations, s.joint_target_rot)
+    st = Stander(m1, height=c.height)
+    st.reset()
+    h = c.height
+    x0 = s.body_pos[0].copy()
+    zs = [s.body_pos[0, 2] / h]
+    for k in range(30):
+        s.body_force[:] = 0.0
+        s.body_torque[:] = 0.0
+        if push and k < 3:
+            s.body_force[:, 0] = push * m1.body_mass / 0.1
+        if stand:
+            st.apply(s)
+        step(m1, s, 1 / 30, substeps=8)
+        if k + 1 in (6, 15, 30):
+            zs.append(s.body_pos[0, 2] / h)
+        assert np.all(np.isfinite(s.body_pos))
+    return np.array(zs), float(np.linalg.norm((s.body_pos[0] - x0)[:2]) / h), st
+
+
+@pytest.mark.parametrize("name", ["humanoid", "dog", "random_0", "random_4"])
+def test_lookahead_stands_unhit(name):
+    zs, travel, st = _lookahead(_creature(name), stand=True)
+    assert st.supports >= 2
+    assert zs.min() > 0.85 * zs[0], zs          # measured: humanoid 0.56 -> 0.51, dog 0.62 -> 0.56 (lowest)
+    assert travel < 0.05, travel
+
+
+def test_servos_alone_let_the_humanoid_fall():
+    # the reason for the controller (and a check that the test above can fail)
+    zs, _, _ = _lookahead(_creature("humanoid"), stand=False)
+    assert zs[-1] < 0.75 * zs[0], zs            # measured 0.56 -> 0.34
+
+
+@pytest.mark.parametrize("name", ["humanoid", "random_0"])
+def test_light_push_recovers(name):
+    zs, travel, _ = _lookahead(_creature(name), stand=True, push=1.0)
+    assert zs[-1] > 0.85 * zs[0], zs
+    assert travel < 0.1, travel
+
+
+def test_knock_down_still_topples():
+    zs, travel, _ = _lookahead(_creature("humanoid"), stand=True, push=3.0)
+    assert zs[-1] < 0.5 * zs[0], zs             # measured 0.56 -> 0.06
+    assert travel > 0.2, travel
+
+
+def test_no_support_no_torque():
+    c = _creature("humanoid")
+    m1 = _models(c, ImpactParams())[0]
+    from engine.physics import PhysicsState
+
+    s = PhysicsState(m1)
+    s.body_pos[:, 2] += 1.0                     # in the air: nothing to stand on
+    st = Stander(m1, height=c.height)
+    st.reset()
+    st.apply(s)
+    assert st.supports == 0
+    assert not np.any(s.body_torque) and not np.any(s.body_force)
