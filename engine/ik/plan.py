@@ -66,7 +66,7 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
-    spine_brace: bool = True     # a spine body held at a goal keeps its origin's rest distance to its child's joint
+    spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
