@@ -115,7 +115,8 @@ P_SPINE_OUTER, P_SPINE_INNER, P_LIMB_OUTER, P_LIMB_INNER = 0, 1, 2, 3
 P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
 P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
 P_SOFT_REACH, P_LIMB_STRETCH = 12, 13
-NPARAM = 14
+P_GOAL_AIM, P_ROOT_PIN = 14, 15
+NPARAM = 16
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
 # state, dg_target, sp_acc, lg_target, lg_jtarget.
@@ -648,6 +649,19 @@ def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def _pin_root_children(ch_particle, ch_prev, sp_body, b_parent, sp_rest, root_pos, root_rot, sp_pos, sp_inv):
+    """The root's frame is the game's, so a spine body hanging straight off the root has
+    its joint where the root's frame puts it: its particle is fixed there (after any goal
+    wrote it), else the spine phase swings it about the root's origin and the body comes
+    off the root (a gap of a whole bone at the root's child)."""
+    for k in range(ch_particle.shape[0]):
+        i = ch_particle[k]
+        if ch_prev[k] == 0 and b_parent[sp_body[i]] == 0:
+            set3(sp_pos, i, vadd(root_pos, qrot(root_rot, v3(sp_rest, i))))
+            sp_inv[i] = 0.0
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
                  state, sp_acc):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
@@ -678,6 +692,10 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
     n_inner = int(prm[P_SPINE_INNER])
     inv_n = 1.0 / (1 + n_outer * n_inner)        # pins per solve: the start and every sweep
     _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True, inv_n)
+    root_pin = prm[P_ROOT_PIN] > 0.0
+    ch_particle, ch_prev, sp_body, b_parent, sp_rest = P.ch_particle, P.ch_prev, P.sp_body, P.b_parent, P.sp_rest
+    if root_pin:
+        _pin_root_children(ch_particle, ch_prev, sp_body, b_parent, sp_rest, root_pos, root_rot, sp_pos, sp_inv)
     buckle = 0.0
     nsc = P.sc_a.shape[0]
     anti = prm[P_ANTI_BUCKLING] > 0.0
@@ -719,6 +737,9 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                         set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, inv_n)))
             _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False,
                            inv_n)
+            if root_pin:
+                _pin_root_children(ch_particle, ch_prev, sp_body, b_parent, sp_rest, root_pos, root_rot, sp_pos,
+                                   sp_inv)
         if anti:
             b = smoothstep((_buckle_metric(P.bp_c1, P.bp_c2, P.bp_sign1, P.bp_rest_angle, P.sc_a, P.sc_b, P.sp_rest,
                                            root_rot, sp_pos) - prm[P_BUCKLE_ON])
@@ -906,26 +927,36 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         for j in range(adr, adr + num + 1):
             nxt = P.segbody_body[j] if j < adr + num else P.sp_body[P.seg_b[g]]
             if prev != 0 and P.b_parent[nxt] == prev:
-                _aim_at_child(P, prev, nxt, goal_pos_w, out_pos, out_rot)
+                _aim_at_child(P, prev, nxt, goal_pos_w, goal_rot_w, out_pos, out_rot)
             prev = nxt
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _aim_at_child(P, x, y, goal_pos_w, out_pos, out_rot):
-    """Swing body ``x`` about its joint so that its child ``y``'s joint lies on its bone; a
-    body held at a position goal of its own (a crawler's pseudo-foot on the ground) swings
-    only as far as the goal's weight leaves it free (the swing would lift its origin off
-    the goal)."""
+def _aim_at_child(P, x, y, goal_pos_w, goal_rot_w, out_pos, out_rot):
+    """Swing body ``x`` about its joint so that its child ``y``'s joint lies on its bone.
+    A body held at a goal of its own swings only as far as the goal leaves it free: with
+    ``goal_aim`` 1 (the default) as far as its position and rotation weights together
+    (pw * rw) pin it, since a full pose goal (a crawler's pseudo-foot on the ground) says
+    where the body is and a swing would lift its origin off the goal, while a position-only
+    goal leaves the rotation to the spine (the brace in the spine phase has put the child's
+    joint where the body can point at it with its origin on the goal); with ``goal_aim`` 0
+    as far as its position weight alone (a spine held at position goals comes apart). An
+    origin on its joint is not moved by the swing, so such a body always aims."""
     w = 0.0
     for gi in range(P.goal_body.shape[0]):
         if P.goal_body[gi] == x:
             w = min(max(goal_pos_w[x], 0.0), 1.0)
+            if int(P.params[P_GOAL_AIM]) == 1:
+                w *= min(max(goal_rot_w[x], 0.0), 1.0)
+    off = v3(P.b_joint_offset, x)
+    if vnorm(off) <= EPS:
+        w = 0.0
     if w >= 1.0:
         return
     rx = q4(out_rot, x)
-    jx = vsub(v3(out_pos, x), qrot(rx, v3(P.b_joint_offset, x)))
+    jx = vsub(v3(out_pos, x), qrot(rx, off))
     jy = vsub(v3(out_pos, y), qrot(q4(out_rot, y), v3(P.b_joint_offset, y)))
-    cur = qrot(rx, vadd(v3(P.b_joint_offset, x), v3(P.b_local_joint, y)))
+    cur = qrot(rx, vadd(off, v3(P.b_local_joint, y)))
     want = vsub(jy, jx)
     if vnorm(cur) > EPS and vnorm(want) > EPS:
         d = qbetween(cur, want)
@@ -933,7 +964,7 @@ def _aim_at_child(P, x, y, goal_pos_w, out_pos, out_rot):
             d = qslerp((1.0, 0.0, 0.0, 0.0), d, 1.0 - w)
         rx = qnormalize(qmul(d, rx))
         set4(out_rot, x, rx)
-        set3(out_pos, x, vadd(jx, qrot(rx, v3(P.b_joint_offset, x))))
+        set3(out_pos, x, vadd(jx, qrot(rx, off)))
 
 
 @njit(cache=True, _nrt=False, inline="always")

@@ -62,6 +62,11 @@ class IKParams:
     spline_regularization: float = 1e-3
     self_collision: bool = False  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
     self_collision_rounds: int = 2  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
+    goal_aim: int = 1             # a spine body held at a goal swings to point at its outward neighbour as far
+                                  # as the goal leaves it free: 1 by position x rotation weight, 0 by position
+                                  # weight alone (see ``_aim_at_child``)
+    root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
+    spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
@@ -79,6 +84,8 @@ class IKParams:
         v[K.P_SUBSTEPS] = self.transport_substeps
         v[K.P_SOFT_REACH] = self.soft_reach
         v[K.P_LIMB_STRETCH] = self.limb_stretch
+        v[K.P_GOAL_AIM] = self.goal_aim
+        v[K.P_ROOT_PIN] = 1.0 if self.root_pin else 0.0
         return v
 
     def validate(self) -> None:
@@ -104,6 +111,8 @@ class IKParams:
             raise IKError("must be in (0, 1] (1 turns the easing off)", field="soft_reach")
         if not 0.0 < self.chord_compress <= 1.0:
             raise IKError("must be in (0, 1]", field="chord_compress")
+        if self.goal_aim not in (0, 1):
+            raise IKError(f"must be 0 or 1, got {self.goal_aim!r}", field="goal_aim")
         if self.buckle_full <= self.buckle_on:
             raise IKError("buckle_full must be greater than buckle_on", field="buckle_full")
 
@@ -315,7 +324,10 @@ def _build(c, goals: list[int], prm: IKParams):
     branch_bodies = []
     side_cons = []
     for side in sides:
-        branches = [s for k, s in enumerate(side) if s in goal_set or nonspine_ik_child[s] or k == len(side) - 1]
+        # A spine body whose parent is held at a goal is a particle too (when the brace is on):
+        # the brace below keeps it where that rigid parent can point at it.
+        branches = [s for k, s in enumerate(side) if s in goal_set or nonspine_ik_child[s] or k == len(side) - 1
+                    or (prm.spine_brace and int(parent[s]) in goal_set and int(parent[s]) != 0)]
         cons = []
         prev_body, prev_p, prev_k = 0, 0, -1
         for depth, s in enumerate(branches, start=1):
@@ -365,6 +377,17 @@ def _build(c, goals: list[int], prm: IKParams):
                            invb=1.0, depth=depth))
             dg.append(dict(body=g, goal=k, particle=p, spine_particle=sp_of[g], chord=c.body_joint_offset[g].copy(),
                            rel_rot=np.array([1.0, 0.0, 0.0, 0.0])))
+            # Brace: the body is rigid, so its origin and its outward spine child's joint
+            # keep their rest distance too. Without it the spine phase is free to put that
+            # joint anywhere on its chord's sphere, and a body held at its goal cannot
+            # point at it without taking its origin off the goal (a gap at the child).
+            for x in (ch if prm.spine_brace else ()):
+                if x["prev"] == sp_of[g] and int(parent[sp_body[x["particle"]]]) == g:
+                    y = sp_body[x["particle"]]
+                    L = float(np.linalg.norm(rr_joint[y] - rr_pos[g]))
+                    if L > 1e-9:
+                        sc.append(dict(a=p, b=x["particle"], kind=0, len=L, lo=1.0, hi=1.0, plo=1.0, phi=1.0,
+                                       inva=1.0, invb=1.0, depth=depth))
             continue
         limb_root = int(c.limb_root[c.body_limb[g]])
         if g in delegated:
