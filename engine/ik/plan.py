@@ -60,7 +60,7 @@ class IKParams:
     straight_bend: float = 0.03   # bend hint for straight rest chains, fraction of segment length
     fork_splay: float = 0.15      # splay hint for planar forks (branching legs), fraction of the fork's segment
     spline_regularization: float = 1e-3
-    self_collision: bool = False  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
+    self_collision: bool = True  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
     self_collision_rounds: int = 2  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
 
     def vector(self) -> np.ndarray:
@@ -744,7 +744,7 @@ def _build(c, goals: list[int], prm: IKParams):
     )
     fields["cl_i"], fields["cl_f"], cl_rows, cl_pairs = selfcollision.build(
         c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
-        prm.self_collision_rounds, int(sum(sizes)))
+        prm.self_collision_rounds, int(sum(sizes)), goals, goal_lp)
     fields["_scratch_size"] = int(sum(sizes)) + cl_rows
     info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies, cl_pairs=cl_pairs)
     return fields, info
