@@ -400,7 +400,8 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
 def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """The limb phase's self-collision step (after its constraint iterations, before its
     rebuild): ``rounds`` times update the proxies, push overlapping pairs apart, and give
-    the limbs their lengths back by outward projection (as the rebuild does)."""
+    the limbs their lengths back by outward projection (as the rebuild does). Returns
+    how many pair pushes there were (0: nothing touched)."""
     cl_i = P.cl_i
     cl_f = P.cl_f
     nprox = cl_i[0]
@@ -412,9 +413,12 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nlp = P.lp_body.shape[0]
+    total = 0
     for _round in range(cl_i[4]):
-        if _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot) == 0:
+        pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+        if pushed == 0:
             break
+        total += pushed
         for i in range(nlp):
             c = P.lp_con[i]
             if c < 0:
@@ -427,6 +431,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
             Lc = min(max(L, P.lc_plo[c] * P.lc_len[c]), P.lc_phi[c] * P.lc_len[c])
             if Lc != L:
                 _set3(lp_pos, i, _add(_v3(lp_pos, par), _scale(d, Lc / L)))
+    return total
 
 
 @njit(cache=True, _nrt=False, inline="always")
