@@ -1037,19 +1037,12 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             across = vsub(y, vscale(ghat, along))
             set3(lp_pos, m, vadd(piv, vadd(vscale(ghat, scale * along), vscale(across, widen))))
     # Goal particles at their goals (weighted), then the constraint iterations.
-    # With self-collision (issue 16): the contacts push, then one more constraint
-    # iteration re-pins the goals from the pushed chain (an elbow pushed out of the head
-    # stays out while the hand goes back to its goal), then the contacts push again.
-    # (only where a contact pushed: a pose touching nothing is the solve without them)
-    nrep = 2 if P.cl_i[0] > 0 else 1
-    for rep in range(nrep):
-        _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv,
-                      int(prm[P_LIMB_OUTER]) if rep == 0 else 1, int(prm[P_LIMB_INNER]))
-        _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
-        _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest)
-        if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
-            if _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot) == 0:
-                break
+    _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
+                  int(prm[P_LIMB_INNER]))
+    _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
+    _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest)
+    if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
+        _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 

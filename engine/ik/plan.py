@@ -61,7 +61,7 @@ class IKParams:
     fork_splay: float = 0.15      # splay hint for planar forks (branching legs), fraction of the fork's segment
     spline_regularization: float = 1e-3
     self_collision: bool = False  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
-    self_collision_rounds: int = 1  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
+    self_collision_rounds: int = 2  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
