@@ -174,8 +174,8 @@ def test_library_creatures_with_arms_stay_out_of_themselves(name):
     """Never deeper than without self-collision, and below the grid's fail line except
     where a flat box's round proxy leaves it short: gorilla clap (the hands stop at each
     other, the forearms' flat boxes then overlap 0.063 h; 0.064 h without) and giant
-    hand_to_mouth (forearm into the chest's box, 0.071 -> 0.0662 h with the goals settled
-    in front of the face and the extra constraint iteration; 0.064 h before). Capsules are round:
+    hand_to_mouth (forearm into the chest's box, 0.071 -> under 0.0665 h with its goals
+    settled in front of the face; 0.064 h before the settle). Capsules are round:
     box proxies would close the rest (/work/notes/s22-selfon.md)."""
     short = {("gorilla", "clap"): 0.065, ("giant", "hand_to_mouth"): 0.0665}
     c = creature(name)
