@@ -38,7 +38,7 @@ import math
 from numba import njit
 
 EPS = 1e-12
-NI_HEAD = 5      # ints before the per-proxy records
+NI_HEAD = 6      # ints before the per-proxy records
 NI_PROX = 3      # ints per proxy
 NF_PROX = 8      # floats per proxy
 W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
@@ -400,21 +400,25 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
 def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """The limb phase's self-collision step (after its constraint iterations, before its
     rebuild): ``rounds`` times update the proxies, push overlapping pairs apart, and give
-    the limbs their lengths back by outward projection (as the rebuild does)."""
+    the limbs their lengths back by outward projection (as the rebuild does). Returns
+    how many pair pushes there were (0: nothing touched)."""
     cl_i = P.cl_i
     cl_f = P.cl_f
     nprox = cl_i[0]
     nmove = cl_i[1]
-    w0 = cl_i[3]
+    w0 = cl_i[3] + P.b_joint_offset.shape[0]   # after the settled goals (``settle_goals``)
     work = scratch[w0:w0 + W * nprox + 2 * lp_pos.shape[0]]
     for k in range(nmove):
         _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     nlp = P.lp_body.shape[0]
+    total = 0
     for _round in range(cl_i[4]):
-        if _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot) == 0:
+        pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+        if pushed == 0:
             break
+        total += pushed
         for i in range(nlp):
             c = P.lp_con[i]
             if c < 0:
@@ -427,3 +431,168 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
             Lc = min(max(L, P.lc_plo[c] * P.lc_len[c]), P.lc_phi[c] * P.lc_len[c])
             if Lc != L:
                 _set3(lp_pos, i, _add(_v3(lp_pos, par), _scale(d, Lc / L)))
+    return total
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _goal_push(pen, band):
+    """How far a goal ``pen`` inside a surface (negative: outside) is moved out: 0 beyond
+    ``band`` outside, all of it beyond ``band`` inside, a quadratic between (C1: a goal
+    crossing the surface moves smoothly, and a deep goal lands on the surface)."""
+    if pen <= -band:
+        return 0.0
+    if pen >= band:
+        return pen
+    x = pen + band
+    return x * x / (4.0 * band)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _limb_root_rest(P, gi, out_pos, out_rot):
+    """Rest place of goal gi's limb root carried by its posed attach body."""
+    i = P.goal_lproot[gi]
+    if i < 0:
+        return _v3(out_pos, 0)
+    s = P.lp_attach[i]
+    return _add(_v3(out_pos, s), _rot(_q4(out_rot, s), _v3(P.lp_local, i)))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _perp(v, ax, aa):
+    """v without its component along ax (aa = |ax|^2)."""
+    if aa <= EPS:
+        return v
+    return _sub(v, _scale(ax, _dot(v, ax) / aa))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _exit_side(P, gi, q, ax, aa, out_pos, out_rot):
+    """Unit direction a goal on a fixed proxy's axis (at q, axis ax) leaves by: the
+    creature's forward (the root's +X) across the axis, where the axis is not itself
+    forward, else the side of the goal's limb root. It depends on the posed carrier only,
+    never on the goal, so the settled goal is continuous in the goal."""
+    fwd = _perp(_rot(_q4(out_rot, 0), (1.0, 0.0, 0.0)), ax, aa)
+    nf = math.sqrt(_dot(fwd, fwd))
+    side = _perp(_sub(_limb_root_rest(P, gi, out_pos, out_rot), q), ax, aa)
+    ns = math.sqrt(_dot(side, side))
+    u = _scale(fwd, nf)   # weight forward by how well it crosses the axis
+    if ns > EPS:
+        u = _add(u, _scale(side, (1.0 - nf) / ns))
+    nu = math.sqrt(_dot(u, u))
+    if nu < EPS:
+        return (0.0, 0.0, 1.0)
+    return _scale(u, 1.0 / nu)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot):
+    """Goals made consistent with the creature's own bodies, before the limb phase (issue
+    16): a position goal for a limb's goal body that lies inside another body's proxy of
+    the same creature (one the limb phase does not move: the torso, the head, a spine
+    body; pairs as the kernel's, the rest pose's own overlap allowed) is moved out to
+    that proxy's surface plus the goal body's own radius, and two limb goal bodies whose
+    goals lie closer than their two radii (the hands of a clap) are moved apart, half
+    each. The move is continuous in the goal (``_goal_push``'s band; a goal on a proxy's
+    axis leaves toward its limb's root). Writes the goals the limb phase pins to into
+    the first ``nbody`` rows of the self-collision work rows and returns them; the joint
+    targets (``goal_joint``) move with their goals. With self-collision off the rows are
+    the goals unchanged. ``engine.validation.goals`` measures ``reach_miss`` against the
+    same settled goals (``engine.ik.selfcollision.settled_goals``)."""
+    cl_i = P.cl_i
+    cl_f = P.cl_f
+    nb = P.b_joint_offset.shape[0]
+    w0 = cl_i[3]
+    moved = scratch[w0:w0 + nb]
+    ngoal = P.goal_body.shape[0]
+    for gi in range(ngoal):
+        _set3(moved, P.goal_body[gi], _v3(goal_pos, P.goal_body[gi]))
+    if cl_i[0] == 0:
+        return moved
+    nprox = cl_i[0]
+    allow0 = NF_PROX * nprox
+    gs = cl_i[5]
+    for _it in range(2):
+        # against the fixed proxies, each goal alone (mirror images stay mirrored)
+        for gi in range(ngoal):
+            b = P.goal_body[gi]
+            if P.goal_lp[gi] < 0 or goal_pos_w[b] <= 0.0:
+                continue
+            rg = cl_f[NF_PROX * cl_i[gs + 3 * gi] + 6]
+            g = _v3(moved, b)
+            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * cl_i[gs + 3 * gi + 2], 3):
+                if cl_i[e + 2] >= 0:
+                    continue
+                p = cl_i[e]
+                k = cl_i[e + 1]
+                f = NF_PROX * k
+                s = cl_i[NI_HEAD + NI_PROX * k]
+                ps = _v3(out_pos, s)
+                rs = _q4(out_rot, s)
+                a0 = _add(ps, _rot(rs, (cl_f[f], cl_f[f + 1], cl_f[f + 2])))
+                a1 = _add(ps, _rot(rs, (cl_f[f + 3], cl_f[f + 4], cl_f[f + 5])))
+                rk = cl_f[f + 6]
+                ax = _sub(a1, a0)
+                aa = _dot(ax, ax)
+                t = _clamp01(_dot(_sub(g, a0), ax) / aa) if aa > EPS else 0.5
+                q = _add(a0, _scale(ax, t))
+                d = _sub(g, q)
+                dist = math.sqrt(_dot(d, d))
+                reach = rk + rg - cl_f[allow0 + 2 * p]
+                band = 0.5 * min(rk, rg)
+                m = _goal_push(reach - dist, band)
+                if m <= 0.0:
+                    continue
+                # out from the axis point to distance dist + m, along the offset leaned
+                # toward the exit side by a quarter radius (defined on the axis itself)
+                # (the lean grows with the move from 0: none at the band's outer edge)
+                lean = 0.25 * rk * min(m / band, 1.0)
+                n = _add(d, _scale(_exit_side(P, gi, q, ax, aa, out_pos, out_rot), lean))
+                nn = math.sqrt(_dot(n, n))
+                if nn < EPS:
+                    continue
+                g = _add(q, _scale(n, (dist + m) / nn))
+            _set3(moved, b, g)
+        # limb goal bodies apart (each pair once: the lower goal index does it)
+        for gi in range(ngoal):
+            b = P.goal_body[gi]
+            if P.goal_lp[gi] < 0 or goal_pos_w[b] <= 0.0:
+                continue
+            rg = cl_f[NF_PROX * cl_i[gs + 3 * gi] + 6]
+            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * cl_i[gs + 3 * gi + 2], 3):
+                gj = cl_i[e + 2]
+                if gj <= gi:
+                    continue
+                bj = P.goal_body[gj]
+                if goal_pos_w[bj] <= 0.0:
+                    continue
+                p = cl_i[e]
+                rj = cl_f[NF_PROX * cl_i[e + 1] + 6]
+                gA = _v3(moved, b)
+                gB = _v3(moved, bj)
+                d = _sub(gA, gB)
+                dist = math.sqrt(_dot(d, d))
+                reach = rg + rj - cl_f[allow0 + 2 * p]
+                band = 0.5 * min(rg, rj)
+                m = _goal_push(reach - dist, band)
+                if m <= 0.0:
+                    continue
+                u = _sub(_limb_root_rest(P, gi, out_pos, out_rot), _limb_root_rest(P, gj, out_pos, out_rot))
+                nu = math.sqrt(_dot(u, u))
+                n = d
+                if nu > EPS:
+                    n = _add(d, _scale(u, 0.25 * min(rg, rj) * min(m / band, 1.0) / nu))
+                nn = math.sqrt(_dot(n, n))
+                if nn < EPS:
+                    continue
+                # both to distance dist + m apart about their middle
+                mid = _scale(_add(gA, gB), 0.5)
+                h = 0.5 * (dist + m) / nn
+                _set3(moved, b, _add(mid, _scale(n, h)))
+                _set3(moved, bj, _sub(mid, _scale(n, h)))
+    for gi in range(ngoal):
+        b = P.goal_body[gi]
+        if P.goal_lp[gi] < 0 or goal_pos_w[b] <= 0.0:
+            continue
+        dlt = _sub(_v3(moved, b), _v3(goal_pos, b))
+        _set3(goal_joint, gi, _add(_v3(goal_joint, gi), dlt))
+    return moved

@@ -1424,8 +1424,21 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
             set3(goal_joint, gi, target)
         if moved <= 1e-7:
             break
-    _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
+    # goals inside the creature's own bodies moved to their surface (issue 16; a copy:
+    # the caller's goals are not written)
+    goal_limb = _collide.settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
+    _limb_phase(P, goal_limb, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot, lg_target, lg_jtarget, scratch)
+
+
+@njit(cache=True, _nrt=False)
+def settle_packed(plan_i, plan_f, plan_f3, plan_f4, goal_pos, goal_pos_w, body_pos, body_rot, scratch):
+    """The limb phase's settled goals (``_collide.settle_goals``) for a posed creature
+    whose spine and root are ``body_pos``/``body_rot``: written into the scratch rows the
+    solve uses (``engine.ik.selfcollision.settled_goals`` reads them)."""
+    P = unpack(plan_i, plan_f, plan_f3, plan_f4)
+    views = _scratch_views(P, scratch)
+    _collide.settle_goals(P, scratch, goal_pos, goal_pos_w, views[5], body_pos, body_rot)
 
 
 @njit(cache=True, _nrt=False, inline="always")

@@ -767,7 +767,7 @@ def _build(c, goals: list[int], prm: IKParams):
     )
     fields["cl_i"], fields["cl_f"], cl_rows, cl_pairs = selfcollision.build(
         c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
-        prm.self_collision_rounds, int(sum(sizes)))
+        prm.self_collision_rounds, int(sum(sizes)), goals, goal_lp)
     fields["_scratch_size"] = int(sum(sizes)) + cl_rows
     info = dict(has_ik=has_ik, delegated=delegated, branch_bodies=branch_bodies, cl_pairs=cl_pairs)
     return fields, info

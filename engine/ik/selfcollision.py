@@ -57,14 +57,17 @@ def closest_distance(a0, a1, b0, b1):
     return float(np.linalg.norm((a0 + s * (a1 - a0)) - (b0 + t * (b1 - b0))))
 
 
-def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: int, work_row: int):
+def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: int, work_row: int,
+          goal_body=(), goal_lp=()):
     """(cl_i int32, cl_f float64, work rows, pair bodies (npair, 2) int64) for one plan.
     ``enabled`` False gives empty fields (nothing is tested: the solve is the one without
-    self-collision)."""
+    self-collision). The first ``nbody`` work rows always hold the limb phase's goal
+    positions (``engine.ik._collide.settle_goals``); the goal section lists, per goal of
+    the plan (``goal_body``, ``goal_lp``), the pairs its body is settled against."""
     n = c.nbody
     parent = c.body_parent
     if not enabled or n < 3:
-        return np.array([0, 0, 0, work_row, 0], np.int32), np.zeros(0), 0, np.zeros((0, 2), np.int64)
+        return np.array([0, 0, 0, work_row, 0, 0], np.int32), np.zeros(0), n, np.zeros((0, 2), np.int64)
     # The bone each limb body swings with: (pivot particle, direction particle).
     bone_of = {}
     for i in range(len(lp_body)):
@@ -88,7 +91,7 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
     order = [b for b in range(n) if owners[b][1] >= 0] + [b for b in range(n) if owners[b][1] < 0]
     slot = {b: k for k, b in enumerate(order)}
     nmove = sum(1 for b in range(n) if owners[b][1] >= 0)
-    ints = [len(order), nmove, 0, work_row, int(rounds)]
+    ints = [len(order), nmove, 0, work_row, int(rounds), 0]
     floats = []
     for b in order:
         s, i, d, o = owners[b]
@@ -124,9 +127,35 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
     ints[2] = len(pairs)
     for p in pairs:
         ints += list(p)
+    # Goal section: per goal (own proxy slot, first entry, entries), then entries (pair,
+    # other slot, other goal or -1): the fixed proxies a limb goal body's position goal
+    # is settled against, and the other limb goals' bodies it is kept apart from.
+    goal_of = {int(b): gi for gi, b in enumerate(goal_body) if goal_lp[gi] >= 0}
+    ints[5] = len(ints)
+    head = len(ints)
+    ints += [0, 0, 0] * len(goal_body)
+    for gi, b in enumerate(goal_body):
+        b = int(b)
+        ints[head + 3 * gi] = slot[b]
+        ints[head + 3 * gi + 1] = len(ints)
+        if goal_lp[gi] < 0:
+            continue
+        cnt = 0
+        for p, (x, y) in enumerate(pair_bodies):
+            if b not in (x, y):
+                continue
+            o = y if x == b else x
+            if owners[o][1] < 0:
+                ints += [p, slot[o], -1]
+            elif o in goal_of:
+                ints += [p, slot[o], goal_of[o]]
+            else:
+                continue
+            cnt += 1
+        ints[head + 3 * gi + 2] = cnt
     cl_i = np.array(ints, np.int32)
     cl_f = np.array(floats + allowed, np.float64)
-    return cl_i, cl_f, C.W * len(order) + 2 * len(lp_body), np.array(pair_bodies, np.int64).reshape(-1, 2)
+    return cl_i, cl_f, n + C.W * len(order) + 2 * len(lp_body), np.array(pair_bodies, np.int64).reshape(-1, 2)
 
 
 def pose_excess(plan, pos, rot, margin: float = 0.0) -> np.ndarray:
@@ -157,4 +186,28 @@ def pose_excess(plan, pos, rot, margin: float = 0.0) -> np.ndarray:
             rb0, rb1, _ = _rest_segment(c, int(b))
             rest[int(a), int(b)] = max(0.0, ra + rb - closest_distance(ra0, ra1, rb0, rb1))
         out[j] = max(0.0, ra + rb + margin * min(ra, rb) - closest_distance(a0, a1, b0, b1) - rest[int(a), int(b)])
+    return out
+
+
+def settled_goals(plan, goal_pos, goal_pw, body_pos, body_rot, scratch=None) -> np.ndarray:
+    """(nbody, 3) the position goals the plan's limb phase pins to, for goals
+    ``goal_pos`` (nbody, 3) of weights ``goal_pw`` (nbody,) on a creature whose posed
+    spine and root are ``body_pos``/``body_rot`` (a solved pose: the limb phase does not
+    move them): goals inside the creature's own bodies moved to their surface
+    (``engine.ik._collide.settle_goals``); rows of bodies without a limb goal are
+    ``goal_pos``'s. With self-collision off, ``goal_pos`` unchanged."""
+    from engine.ik import _kernels as K
+
+    out = np.array(goal_pos, np.float64)
+    a = plan.arrays
+    if int(a.cl_i[0]) == 0:
+        return out
+    if scratch is None:
+        scratch = plan.make_scratch()
+    K.settle_packed(plan.plan_i, plan.plan_f, plan.plan_f3, plan.plan_f4, np.ascontiguousarray(goal_pos, np.float64),
+                    np.ascontiguousarray(goal_pw, np.float64), np.ascontiguousarray(body_pos, np.float64),
+                    np.ascontiguousarray(body_rot, np.float64), scratch)
+    w0 = int(a.cl_i[3])
+    for b in plan.goal_bodies:
+        out[b] = scratch[w0 + b]
     return out

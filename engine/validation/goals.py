@@ -19,6 +19,13 @@ IK to go 40% of the way and is soft by design. Per frame and goal body:
 - ``lookat_miss``: the same for bodies of look-at channels (their goal aims at the target).
 
 The root is forward-kinematic (its pose is its goal) and is skipped.
+
+Position goals are the ones the IK's limb phase was asked: with self-collision on, a limb
+goal inside another of the creature's bodies is moved to that body's surface before the
+limb phase (``engine.ik.selfcollision.settled_goals``; a goal inside the creature cannot
+be met without passing through it, so stopping at the surface is not a miss). The frames
+the recording's plans say so are measured against the settled goals, and ``reach_miss``
+reports how far goals were moved (``settled_m``, ``settled_frames``).
 """
 
 from __future__ import annotations
@@ -41,8 +48,9 @@ def goal_error(rec, ctx) -> list[Measure]:
     names = c.body_names
     if rec.nframe == 0:
         return []
+    goal_pos, moved_max, moved_frames = settled_goal_positions(rec)
     reach_rel, beyond_rel, spine_rel, ang = K.goal_errors(
-        rec.world_pos, rec.world_rot, rec.goal_pos, rec.goal_rot, rec.goal_pw, rec.goal_rw, c.body_joint_offset,
+        rec.world_pos, rec.world_rot, goal_pos, rec.goal_rot, rec.goal_pw, rec.goal_rw, c.body_joint_offset,
         ctx.limb_root_of, ctx.is_chain, ctx.is_spine_goal, ctx.chain, ctx.reach,
         np.maximum(ctx.reach, REACH_FLOOR * ctx.scale), ctx.scale, FULL, REACH_SHARE)
     out = [worst("reach_miss", reach_rel, "reach", names, rec.t),
@@ -56,6 +64,39 @@ def goal_error(rec, ctx) -> list[Measure]:
     nrot = int((rec.goal_rw[:, 1:] >= FULL).sum())
     for m in out:
         m.detail["goal_frames"] = nrot if m.name in ("rotation_miss", "lookat_miss") else npos
+    out[0].detail["settled_m"] = round(moved_max, 6)
+    out[0].detail["settled_frames"] = moved_frames
     return out
+
+
+def settled_goal_positions(rec) -> tuple[np.ndarray, float, int]:
+    """(goal positions the limb phase was asked per frame, the largest move of a
+    full-weight goal, m, frames with a goal moved by more than 1e-6 m): the recording's
+    goals settled out of the creature's own bodies by each frame's IK plan (unchanged
+    where self-collision was off)."""
+    from engine.ik.selfcollision import settled_goals
+
+    plans = rec.meta.get("ik_plans", [])
+    idx = rec.meta.get("ik_plan_of_frame")
+    if not plans or idx is None or not any(int(p.arrays.cl_i[0]) > 0 for p in plans):
+        return rec.goal_pos, 0.0, 0
+    out = rec.goal_pos.copy()
+    scratch = {}
+    moved_max = 0.0
+    frames = 0
+    for f in range(rec.nframe):
+        k = int(idx[f]) if f < idx.shape[0] else -1
+        if k < 0 or int(plans[k].arrays.cl_i[0]) == 0:
+            continue
+        p = plans[k]
+        if k not in scratch:
+            scratch[k] = p.make_scratch()
+        out[f] = settled_goals(p, rec.goal_pos[f], rec.goal_pw[f], rec.world_pos[f], rec.world_rot[f], scratch[k])
+        full = rec.goal_pw[f] >= FULL
+        if full.any():
+            d = float(np.linalg.norm(out[f][full] - rec.goal_pos[f][full], axis=1).max())
+            moved_max = max(moved_max, d)
+            frames += d > 1e-6
+    return out, moved_max, frames
 
 

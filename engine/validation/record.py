@@ -142,7 +142,28 @@ def record_cell(creature: Creature, animation: Animation, variant: int = 0, targ
         rec.root_pos[i] = s.root_pos[r]
         rec.root_rot[i] = s.root_rot[r]
         rec.driven[i] = s.driven[r]
+        _note_plan(rec, i, ch)
     return rec
+
+
+def _note_plan(rec: Recording, i: int, ch) -> None:
+    """Remember the IK plan frame ``i`` was solved with (``meta['ik_plans']``, and per
+    frame its index in ``meta['ik_plan_of_frame']``): the goal metrics judge a frame
+    against the goals that plan's limb phase was asked (goals settled out of the
+    creature's own bodies, ``engine.ik.selfcollision.settled_goals``)."""
+    plans = rec.meta.setdefault("ik_plans", [])
+    idx = rec.meta.get("ik_plan_of_frame")
+    if idx is None or idx.shape[0] != rec.t.shape[0]:
+        idx = rec.meta["ik_plan_of_frame"] = np.full(rec.t.shape[0], -1, np.int64)
+    p = ch.ik_plan
+    if p is None:
+        return
+    for k, q in enumerate(plans):
+        if q is p:
+            idx[i] = k
+            return
+    plans.append(p)
+    idx[i] = len(plans) - 1
 
 
 @dataclass(frozen=True)
@@ -213,6 +234,9 @@ def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, s
                 tick[i] = (time.perf_counter() - t0) / m
                 for name in _STACKED:
                     frames[name][i] = getattr(s, name)
+                for j, ch in enumerate(chars):
+                    if i < recs[j].t.shape[0]:
+                        _note_plan(recs[j], i, ch)
                 for j, (h, _, _) in enumerate(handles):
                     if h.playing:
                         clip_time[i, j] = a.time[j, slots[j]]
