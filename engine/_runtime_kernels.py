@@ -10,9 +10,19 @@ from numba import njit, prange
 
 from engine.anim._kernels import goals_kernel, goals_kernel_body_targets
 from engine.anim.evaluate import EvalScratch
+from engine.gait._kernels import pivot_goal
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
-from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_rotate_t, quat_slerp_into, quat_slerp_t
+from engine.mathx.quat import (
+    quat_from_rotvec_t,
+    quat_mul_into,
+    quat_mul_t,
+    quat_normalize_t,
+    quat_rotate_into,
+    quat_rotate_t,
+    quat_slerp_into,
+    quat_slerp_t,
+)
 
 
 @njit(cache=True)
@@ -235,7 +245,7 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
 
 @njit(cache=True)
 def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot,
-               leg_rigid, leg_hip, leg_ankle, leg_reach):
+               leg_rigid, leg_hip, leg_ankle, leg_reach, leg_chain, leg_knee, leg_contact, leg_contact_local, scratch):
     """Standing (the gait stage of a character that does not locomote): every foot of
     each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
     animations ask of it: the blended goal is laid over the rest spot by its own weight,
@@ -243,14 +253,31 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
     pushing the feet through the ground, and a clip that lifts a foot (a kick, a jump)
     still lifts it, fading in and out without a pop.
 
-    A knee-less leg (``leg_rigid``: one segment from hip to ankle) cannot bend: its hip
-    joint must stay on the sphere of the segment's length around its ankle. So when such
-    legs stand, the root (which the clip poses) is moved, translation only, to where their
-    hips are on their spheres: three rounds of the mean correction over those legs
-    (``leg_hip``: hip joint in the root frame at rest; ``leg_ankle``: ankle in the foot's
-    frame, from its origin; ``leg_reach``: hip to ankle). A crouch on stilts is then no
-    crouch, and a sway moves only as far as the stilts allow, instead of the feet going
-    into the ground or skating."""
+    The root (which the clip poses) is then moved, translation only, to where the legs
+    can hold it (the paper's ground contact: a standing foot stays planted, section 4.2):
+    a leg's hip joint (``leg_hip``: in the root frame at rest, carried by the root) must
+    be within its chain's length (``leg_chain``) of its foot joint (``leg_ankle``: in the
+    foot's frame from its origin, carried by the foot's goal), or the IK stretches the
+    leg straight and the foot leaves its goal (a roar's lunge, a dance's bounce on
+    straight legs). A knee-less leg (``leg_rigid``: one segment from hip to ankle) cannot
+    bend at all: its hip must stay on the sphere of the segment's length (``leg_reach``)
+    around its ankle, so a crouch on stilts is no crouch. Each leg asks for the shortest
+    move of its hip onto its allowed set (every leg: a foot the clip holds at its rest
+    spot stands as well as one it leaves free, and one it lifts asks the body to follow
+    only when it lifts it out of reach); the root moves by the mean of the asks weighted by their
+    lengths (continuous as a leg starts or stops asking) and turns, about the asking hips'
+    centre, by the least-squares small turn that meets what the mean leaves (a sway or a
+    yaw the planted legs cannot follow: a centipede's 24 knee-less legs), four rounds.
+
+    A *pivot* foot (``leg_knee[k, 3] > 0``: the lower leg of a knee-less limb, a
+    centipede's tibia; see ``engine.gait.rig``) bends at its joint instead: its contact
+    point (``leg_contact``: from the foot's origin at rest, character space;
+    ``leg_contact_local`` the same in the foot's frame) is what stands, within the
+    segment plus the foot's reach of the hip, and once the root is placed the foot's goal
+    turns about its contact point so its joint sits on the segment's sphere around the
+    hip (``engine.gait._kernels.pivot_goal``, what the gait does with such feet).
+
+    ``scratch`` (nleg, 7) is scratch."""
     nleg = feet.shape[0]
     for i in range(rows.shape[0]):
         r = rows[i]
@@ -273,24 +300,23 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 goal_rot[r, f, 2] = q2
                 goal_rot[r, f, 3] = q3
             goal_rw[r, f] = 1.0
-        # knee-less legs hold the root where their hips can be
-        nrigid = 0
-        for k in range(nleg):
-            if leg_rigid[k] and goal_pw[r, feet[k]] >= 1.0:
-                nrigid += 1
-        if nrigid == 0:
-            continue
-        for _ in range(3):
-            cx, cy, cz = 0.0, 0.0, 0.0
+        # the root where the standing legs can hold it
+        for _ in range(4):
+            wsum = 0.0
+            hbx, hby, hbz, tx, ty, tz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
             for k in range(nleg):
-                if not leg_rigid[k]:
-                    continue
+                scratch[k, 0] = 0.0
+                pivot = leg_knee[k, 3] > 0.0
+                rigid = leg_rigid[k] and not pivot
                 f = feet[k]
                 hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
                 hx += root_pos[r, 0]
                 hy += root_pos[r, 1]
                 hz += root_pos[r, 2]
-                ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_ankle[k])
+                if pivot:
+                    ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_contact_local[k])
+                else:
+                    ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_ankle[k])
                 ax += goal_pos[r, f, 0]
                 ay += goal_pos[r, f, 1]
                 az += goal_pos[r, f, 2]
@@ -298,13 +324,63 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 d = np.sqrt(vx * vx + vy * vy + vz * vz)
                 if d < 1e-12:
                     continue
-                s = leg_reach[k] / d
-                cx += ax + vx * s - hx
-                cy += ay + vy * s - hy
-                cz += az + vz * s - hz
-            root_pos[r, 0] += cx / nrigid
-            root_pos[r, 1] += cy / nrigid
-            root_pos[r, 2] += cz / nrigid
+                lim = leg_reach[k] if rigid else min(d, leg_chain[k])
+                if lim == d:
+                    continue
+                m = lim / d - 1.0
+                ux, uy, uz = vx * m, vy * m, vz * m
+                a = np.sqrt(ux * ux + uy * uy + uz * uz)
+                scratch[k, 0] = a
+                scratch[k, 1] = hx
+                scratch[k, 2] = hy
+                scratch[k, 3] = hz
+                scratch[k, 4] = ux
+                scratch[k, 5] = uy
+                scratch[k, 6] = uz
+                wsum += a
+                hbx += a * hx
+                hby += a * hy
+                hbz += a * hz
+                tx += a * ux
+                ty += a * uy
+                tz += a * uz
+            if wsum <= 1e-15:
+                break
+            hbx, hby, hbz, tx, ty, tz = hbx / wsum, hby / wsum, hbz / wsum, tx / wsum, ty / wsum, tz / wsum
+            # the turn about the asking hips' centre that best meets what translation leaves
+            nx, ny, nz, den = 0.0, 0.0, 0.0, 0.0
+            for k in range(nleg):
+                a = scratch[k, 0]
+                if a <= 0.0:
+                    continue
+                rx, ry, rz = scratch[k, 1] - hbx, scratch[k, 2] - hby, scratch[k, 3] - hbz
+                ex, ey, ez = scratch[k, 4] - tx, scratch[k, 5] - ty, scratch[k, 6] - tz
+                nx += a * (ry * ez - rz * ey)
+                ny += a * (rz * ex - rx * ez)
+                nz += a * (rx * ey - ry * ex)
+                den += a * (rx * rx + ry * ry + rz * rz)
+            if den > 1e-15:
+                q = quat_from_rotvec_t((nx / den, ny / den, nz / den))
+                px, py, pz = quat_rotate_t(q, (root_pos[r, 0] - hbx, root_pos[r, 1] - hby, root_pos[r, 2] - hbz))
+                root_pos[r, 0] = hbx + px
+                root_pos[r, 1] = hby + py
+                root_pos[r, 2] = hbz + pz
+                q0, q1, q2, q3 = quat_normalize_t(quat_mul_t(q, root_rot[r]))
+                root_rot[r, 0] = q0
+                root_rot[r, 1] = q1
+                root_rot[r, 2] = q2
+                root_rot[r, 3] = q3
+            root_pos[r, 0] += tx
+            root_pos[r, 1] += ty
+            root_pos[r, 2] += tz
+        # pivot feet turn about their contact points to keep their joints on the segment
+        for k in range(nleg):
+            if leg_knee[k, 3] <= 0.0:
+                continue
+            f = feet[k]
+            hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
+            pivot_goal(goal_pos[r, f], goal_rot[r, f], rest_rot[f],
+                       (hx + root_pos[r, 0], hy + root_pos[r, 1], hz + root_pos[r, 2]), leg_knee[k], leg_contact[k])
 
 
 @njit(cache=True)
