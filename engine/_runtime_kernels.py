@@ -243,9 +243,15 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
                       jig_chain_joint, jig_chain_rot, dt, simulate)
 
 
+#: A standing foot the clip moves this far from its rest spot (a fraction of its leg's
+#: chain) no longer holds the body (``stand_feet``).
+LIFT_FREE = 0.25
+
+
 @njit(cache=True)
 def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot,
-               leg_rigid, leg_hip, leg_ankle, leg_reach, leg_chain, leg_knee, leg_contact, leg_contact_local, scratch):
+               leg_rigid, leg_hip, leg_ankle, leg_reach, leg_chain, leg_knee, leg_contact, leg_contact_local,
+               leg_attach, leg_hip_local, carry, scratch):
     """Standing (the gait stage of a character that does not locomote): every foot of
     each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
     animations ask of it: the blended goal is laid over the rest spot by its own weight,
@@ -277,7 +283,13 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
     turns about its contact point so its joint sits on the segment's sphere around the
     hip (``engine.gait._kernels.pivot_goal``, what the gait does with such feet).
 
-    ``scratch`` (nleg, 7) is scratch."""
+    A hip whose spine body has a goal of its own (a roar bending the trunk) is where that
+    goal puts it, as far as the goal's weight goes (``leg_attach``, ``leg_hip_local``:
+    the spine body and the hip in its frame; ``_stand_hip``): the root cannot move it so
+    far alone, so the spine goals (``carry``: spine bodies but the root) move with the
+    root, and the pivot feet aim at it. A foot the clip lifts holds the body less the
+    higher it goes (free at ``LIFT_FREE`` of its chain: a jump still jumps).
+    ``scratch`` (nleg, 8) is scratch."""
     nleg = feet.shape[0]
     for i in range(rows.shape[0]):
         r = rows[i]
@@ -289,6 +301,14 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
             for j in range(3):
                 goal_pos[r, f, j] = rest_pos[f, j] + w * (goal_pos[r, f, j] - rest_pos[f, j])
             goal_pw[r, f] = 1.0
+            # how far the foot stands: a clip that lifts it by a quarter of its chain
+            # (a jump, a kick) leaves the body free of it; nearer, it holds the body
+            # in proportion
+            dx = goal_pos[r, f, 0] - rest_pos[f, 0]
+            dy = goal_pos[r, f, 1] - rest_pos[f, 1]
+            dz = goal_pos[r, f, 2] - rest_pos[f, 2]
+            lift = np.sqrt(dx * dx + dy * dy + dz * dz) / max(LIFT_FREE * leg_chain[k], 1e-12)
+            scratch[k, 7] = 1.0 - min(lift, 1.0)
             wr = min(max(goal_rw[r, f], 0.0), 1.0)
             if wr <= 0.0:
                 for j in range(4):
@@ -309,10 +329,8 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 pivot = leg_knee[k, 3] > 0.0
                 rigid = leg_rigid[k] and not pivot
                 f = feet[k]
-                hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
-                hx += root_pos[r, 0]
-                hy += root_pos[r, 1]
-                hz += root_pos[r, 2]
+                hx, hy, hz, lam = _stand_hip(root_pos[r], root_rot[r], goal_pos[r], goal_rot[r], goal_pw[r],
+                                             goal_rw[r], leg_hip[k], leg_attach[k], leg_hip_local[k])
                 if pivot:
                     ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_contact_local[k])
                 else:
@@ -329,7 +347,9 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                     continue
                 m = lim / d - 1.0
                 ux, uy, uz = vx * m, vy * m, vz * m
-                a = np.sqrt(ux * ux + uy * uy + uz * uz)
+                a = np.sqrt(ux * ux + uy * uy + uz * uz) * (1.0 if rigid else scratch[k, 7])
+                if a <= 0.0:
+                    continue
                 scratch[k, 0] = a
                 scratch[k, 1] = hx
                 scratch[k, 2] = hy
@@ -359,28 +379,59 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 ny += a * (rz * ex - rx * ez)
                 nz += a * (rx * ey - ry * ex)
                 den += a * (rx * rx + ry * ry + rz * rz)
+            q = (1.0, 0.0, 0.0, 0.0)
             if den > 1e-15:
                 q = quat_from_rotvec_t((nx / den, ny / den, nz / den))
-                px, py, pz = quat_rotate_t(q, (root_pos[r, 0] - hbx, root_pos[r, 1] - hby, root_pos[r, 2] - hbz))
-                root_pos[r, 0] = hbx + px
-                root_pos[r, 1] = hby + py
-                root_pos[r, 2] = hbz + pz
-                q0, q1, q2, q3 = quat_normalize_t(quat_mul_t(q, root_rot[r]))
-                root_rot[r, 0] = q0
-                root_rot[r, 1] = q1
-                root_rot[r, 2] = q2
-                root_rot[r, 3] = q3
-            root_pos[r, 0] += tx
-            root_pos[r, 1] += ty
-            root_pos[r, 2] += tz
+            # the root and the spine goals move together (the clip's posture of the trunk
+            # kept relative to its root): a breath or a rise the legs cannot follow
+            # lowers the whole trunk, not the root alone
+            _move_about(q, hbx, hby, hbz, tx, ty, tz, root_pos[r], root_rot[r])
+            for b in range(1, carry.shape[0]):
+                if carry[b] and (goal_pw[r, b] > 0.0 or goal_rw[r, b] > 0.0):
+                    _move_about(q, hbx, hby, hbz, tx, ty, tz, goal_pos[r, b], goal_rot[r, b])
         # pivot feet turn about their contact points to keep their joints on the segment
         for k in range(nleg):
             if leg_knee[k, 3] <= 0.0:
                 continue
             f = feet[k]
-            hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
-            pivot_goal(goal_pos[r, f], goal_rot[r, f], rest_rot[f],
-                       (hx + root_pos[r, 0], hy + root_pos[r, 1], hz + root_pos[r, 2]), leg_knee[k], leg_contact[k])
+            hx, hy, hz, lam = _stand_hip(root_pos[r], root_rot[r], goal_pos[r], goal_rot[r], goal_pw[r], goal_rw[r],
+                                         leg_hip[k], leg_attach[k], leg_hip_local[k])
+            pivot_goal(goal_pos[r, f], goal_rot[r, f], rest_rot[f], (hx, hy, hz), leg_knee[k], leg_contact[k])
+
+
+@njit(cache=True)
+def _move_about(q, cx, cy, cz, tx, ty, tz, pos, rot):
+    """pos <- c + q (pos - c) + t, rot <- q rot (in place)."""
+    px, py, pz = quat_rotate_t(q, (pos[0] - cx, pos[1] - cy, pos[2] - cz))
+    pos[0] = cx + px + tx
+    pos[1] = cy + py + ty
+    pos[2] = cz + pz + tz
+    q0, q1, q2, q3 = quat_normalize_t(quat_mul_t(q, rot))
+    rot[0] = q0
+    rot[1] = q1
+    rot[2] = q2
+    rot[3] = q3
+
+
+@njit(cache=True)
+def _stand_hip(root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, hip, attach, hip_local):
+    """Where a standing leg's hip joint will be (``stand_feet``): carried by the root
+    (``hip``: in the root's frame at rest), or by the goal of the spine body it hangs from
+    (``attach``, ``hip_local``: the hip in that body's frame) as far as that goal holds the
+    body (the lesser of its position and rotation weights, ``lam``, returned last)."""
+    hx, hy, hz = quat_rotate_t(root_rot, hip)
+    hx += root_pos[0]
+    hy += root_pos[1]
+    hz += root_pos[2]
+    lam = 0.0
+    if attach > 0:
+        lam = min(max(min(goal_pw[attach], goal_rw[attach]), 0.0), 1.0)
+    if lam > 0.0:
+        gx, gy, gz = quat_rotate_t(goal_rot[attach], hip_local)
+        hx += lam * (goal_pos[attach, 0] + gx - hx)
+        hy += lam * (goal_pos[attach, 1] + gy - hy)
+        hz += lam * (goal_pos[attach, 2] + gz - hz)
+    return hx, hy, hz, lam
 
 
 @njit(cache=True)
