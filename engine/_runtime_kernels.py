@@ -347,9 +347,13 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                     continue
                 m = lim / d - 1.0
                 ux, uy, uz = vx * m, vy * m, vz * m
-                a = np.sqrt(ux * ux + uy * uy + uz * uz) * (1.0 if rigid else scratch[k, 7])
-                if a <= 0.0:
+                a = np.sqrt(ux * ux + uy * uy + uz * uz)
+                st = 1.0 if rigid else scratch[k, 7]
+                if a <= 0.0 or st <= 0.0:
                     continue
+                # each ask weighs its length in the mean, and counts by how far its foot
+                # stands (a lone ask of a foot that hardly stands moves the root hardly)
+                ux, uy, uz = ux * st, uy * st, uz * st
                 scratch[k, 0] = a
                 scratch[k, 1] = hx
                 scratch[k, 2] = hy
