@@ -10,9 +10,19 @@ from numba import njit, prange
 
 from engine.anim._kernels import goals_kernel, goals_kernel_body_targets
 from engine.anim.evaluate import EvalScratch
+from engine.gait._kernels import pivot_goal
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
-from engine.mathx.quat import quat_mul_into, quat_rotate_into, quat_rotate_t, quat_slerp_into, quat_slerp_t
+from engine.mathx.quat import (
+    quat_from_rotvec_t,
+    quat_mul_into,
+    quat_mul_t,
+    quat_normalize_t,
+    quat_rotate_into,
+    quat_rotate_t,
+    quat_slerp_into,
+    quat_slerp_t,
+)
 
 
 @njit(cache=True)
@@ -233,9 +243,15 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
                       jig_chain_joint, jig_chain_rot, dt, simulate)
 
 
+#: A standing foot the clip moves this far from its rest spot (a fraction of its leg's
+#: chain) no longer holds the body (``stand_feet``).
+LIFT_FREE = 0.25
+
+
 @njit(cache=True)
 def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot,
-               leg_rigid, leg_hip, leg_ankle, leg_reach):
+               leg_rigid, leg_hip, leg_ankle, leg_reach, leg_chain, leg_knee, leg_contact, leg_contact_local,
+               leg_attach, leg_hip_local, carry, scratch):
     """Standing (the gait stage of a character that does not locomote): every foot of
     each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
     animations ask of it: the blended goal is laid over the rest spot by its own weight,
@@ -243,14 +259,37 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
     pushing the feet through the ground, and a clip that lifts a foot (a kick, a jump)
     still lifts it, fading in and out without a pop.
 
-    A knee-less leg (``leg_rigid``: one segment from hip to ankle) cannot bend: its hip
-    joint must stay on the sphere of the segment's length around its ankle. So when such
-    legs stand, the root (which the clip poses) is moved, translation only, to where their
-    hips are on their spheres: three rounds of the mean correction over those legs
-    (``leg_hip``: hip joint in the root frame at rest; ``leg_ankle``: ankle in the foot's
-    frame, from its origin; ``leg_reach``: hip to ankle). A crouch on stilts is then no
-    crouch, and a sway moves only as far as the stilts allow, instead of the feet going
-    into the ground or skating."""
+    The root (which the clip poses) is then moved, translation only, to where the legs
+    can hold it (the paper's ground contact: a standing foot stays planted, section 4.2):
+    a leg's hip joint (``leg_hip``: in the root frame at rest, carried by the root) must
+    be within its chain's length (``leg_chain``) of its foot joint (``leg_ankle``: in the
+    foot's frame from its origin, carried by the foot's goal), or the IK stretches the
+    leg straight and the foot leaves its goal (a roar's lunge, a dance's bounce on
+    straight legs). A knee-less leg (``leg_rigid``: one segment from hip to ankle) cannot
+    bend at all: its hip must stay on the sphere of the segment's length (``leg_reach``)
+    around its ankle, so a crouch on stilts is no crouch. Each leg asks for the shortest
+    move of its hip onto its allowed set (every leg: a foot the clip holds at its rest
+    spot stands as well as one it leaves free, and one it lifts asks the body to follow
+    only when it lifts it out of reach); the root moves by the mean of the asks weighted by their
+    lengths (continuous as a leg starts or stops asking) and turns, about the asking hips'
+    centre, by the least-squares small turn that meets what the mean leaves (a sway or a
+    yaw the planted legs cannot follow: a centipede's 24 knee-less legs), four rounds.
+
+    A *pivot* foot (``leg_knee[k, 3] > 0``: the lower leg of a knee-less limb, a
+    centipede's tibia; see ``engine.gait.rig``) bends at its joint instead: its contact
+    point (``leg_contact``: from the foot's origin at rest, character space;
+    ``leg_contact_local`` the same in the foot's frame) is what stands, within the
+    segment plus the foot's reach of the hip, and once the root is placed the foot's goal
+    turns about its contact point so its joint sits on the segment's sphere around the
+    hip (``engine.gait._kernels.pivot_goal``, what the gait does with such feet).
+
+    A hip whose spine body has a goal of its own (a roar bending the trunk) is where that
+    goal puts it, as far as the goal's weight goes (``leg_attach``, ``leg_hip_local``:
+    the spine body and the hip in its frame; ``_stand_hip``): the root cannot move it so
+    far alone, so the spine goals (``carry``: spine bodies but the root) move with the
+    root, and the pivot feet aim at it. A foot the clip lifts holds the body less the
+    higher it goes (free at ``LIFT_FREE`` of its chain: a jump still jumps).
+    ``scratch`` (nleg, 8) is scratch."""
     nleg = feet.shape[0]
     for i in range(rows.shape[0]):
         r = rows[i]
@@ -262,6 +301,14 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
             for j in range(3):
                 goal_pos[r, f, j] = rest_pos[f, j] + w * (goal_pos[r, f, j] - rest_pos[f, j])
             goal_pw[r, f] = 1.0
+            # how far the foot stands: a clip that lifts it by a quarter of its chain
+            # (a jump, a kick) leaves the body free of it; nearer, it holds the body
+            # in proportion
+            dx = goal_pos[r, f, 0] - rest_pos[f, 0]
+            dy = goal_pos[r, f, 1] - rest_pos[f, 1]
+            dz = goal_pos[r, f, 2] - rest_pos[f, 2]
+            lift = np.sqrt(dx * dx + dy * dy + dz * dz) / max(LIFT_FREE * leg_chain[k], 1e-12)
+            scratch[k, 7] = 1.0 - min(lift, 1.0)
             wr = min(max(goal_rw[r, f], 0.0), 1.0)
             if wr <= 0.0:
                 for j in range(4):
@@ -273,24 +320,21 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 goal_rot[r, f, 2] = q2
                 goal_rot[r, f, 3] = q3
             goal_rw[r, f] = 1.0
-        # knee-less legs hold the root where their hips can be
-        nrigid = 0
-        for k in range(nleg):
-            if leg_rigid[k] and goal_pw[r, feet[k]] >= 1.0:
-                nrigid += 1
-        if nrigid == 0:
-            continue
-        for _ in range(3):
-            cx, cy, cz = 0.0, 0.0, 0.0
+        # the root where the standing legs can hold it
+        for _ in range(4):
+            wsum = 0.0
+            hbx, hby, hbz, tx, ty, tz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
             for k in range(nleg):
-                if not leg_rigid[k]:
-                    continue
+                scratch[k, 0] = 0.0
+                pivot = leg_knee[k, 3] > 0.0
+                rigid = leg_rigid[k] and not pivot
                 f = feet[k]
-                hx, hy, hz = quat_rotate_t(root_rot[r], leg_hip[k])
-                hx += root_pos[r, 0]
-                hy += root_pos[r, 1]
-                hz += root_pos[r, 2]
-                ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_ankle[k])
+                hx, hy, hz, lam = _stand_hip(root_pos[r], root_rot[r], goal_pos[r], goal_rot[r], goal_pw[r],
+                                             goal_rw[r], leg_hip[k], leg_attach[k], leg_hip_local[k])
+                if pivot:
+                    ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_contact_local[k])
+                else:
+                    ax, ay, az = quat_rotate_t(goal_rot[r, f], leg_ankle[k])
                 ax += goal_pos[r, f, 0]
                 ay += goal_pos[r, f, 1]
                 az += goal_pos[r, f, 2]
@@ -298,13 +342,100 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
                 d = np.sqrt(vx * vx + vy * vy + vz * vz)
                 if d < 1e-12:
                     continue
-                s = leg_reach[k] / d
-                cx += ax + vx * s - hx
-                cy += ay + vy * s - hy
-                cz += az + vz * s - hz
-            root_pos[r, 0] += cx / nrigid
-            root_pos[r, 1] += cy / nrigid
-            root_pos[r, 2] += cz / nrigid
+                lim = leg_reach[k] if rigid else min(d, leg_chain[k])
+                if lim == d:
+                    continue
+                m = lim / d - 1.0
+                ux, uy, uz = vx * m, vy * m, vz * m
+                a = np.sqrt(ux * ux + uy * uy + uz * uz)
+                st = 1.0 if rigid else scratch[k, 7]
+                if a <= 0.0 or st <= 0.0:
+                    continue
+                # each ask weighs its length in the mean, and counts by how far its foot
+                # stands (a lone ask of a foot that hardly stands moves the root hardly)
+                ux, uy, uz = ux * st, uy * st, uz * st
+                scratch[k, 0] = a
+                scratch[k, 1] = hx
+                scratch[k, 2] = hy
+                scratch[k, 3] = hz
+                scratch[k, 4] = ux
+                scratch[k, 5] = uy
+                scratch[k, 6] = uz
+                wsum += a
+                hbx += a * hx
+                hby += a * hy
+                hbz += a * hz
+                tx += a * ux
+                ty += a * uy
+                tz += a * uz
+            if wsum <= 1e-15:
+                break
+            hbx, hby, hbz, tx, ty, tz = hbx / wsum, hby / wsum, hbz / wsum, tx / wsum, ty / wsum, tz / wsum
+            # the turn about the asking hips' centre that best meets what translation leaves
+            nx, ny, nz, den = 0.0, 0.0, 0.0, 0.0
+            for k in range(nleg):
+                a = scratch[k, 0]
+                if a <= 0.0:
+                    continue
+                rx, ry, rz = scratch[k, 1] - hbx, scratch[k, 2] - hby, scratch[k, 3] - hbz
+                ex, ey, ez = scratch[k, 4] - tx, scratch[k, 5] - ty, scratch[k, 6] - tz
+                nx += a * (ry * ez - rz * ey)
+                ny += a * (rz * ex - rx * ez)
+                nz += a * (rx * ey - ry * ex)
+                den += a * (rx * rx + ry * ry + rz * rz)
+            q = (1.0, 0.0, 0.0, 0.0)
+            if den > 1e-15:
+                q = quat_from_rotvec_t((nx / den, ny / den, nz / den))
+            # the root and the spine goals move together (the clip's posture of the trunk
+            # kept relative to its root): a breath or a rise the legs cannot follow
+            # lowers the whole trunk, not the root alone
+            _move_about(q, hbx, hby, hbz, tx, ty, tz, root_pos[r], root_rot[r])
+            for b in range(1, carry.shape[0]):
+                if carry[b] and (goal_pw[r, b] > 0.0 or goal_rw[r, b] > 0.0):
+                    _move_about(q, hbx, hby, hbz, tx, ty, tz, goal_pos[r, b], goal_rot[r, b])
+        # pivot feet turn about their contact points to keep their joints on the segment
+        for k in range(nleg):
+            if leg_knee[k, 3] <= 0.0:
+                continue
+            f = feet[k]
+            hx, hy, hz, lam = _stand_hip(root_pos[r], root_rot[r], goal_pos[r], goal_rot[r], goal_pw[r], goal_rw[r],
+                                         leg_hip[k], leg_attach[k], leg_hip_local[k])
+            pivot_goal(goal_pos[r, f], goal_rot[r, f], rest_rot[f], (hx, hy, hz), leg_knee[k], leg_contact[k])
+
+
+@njit(cache=True)
+def _move_about(q, cx, cy, cz, tx, ty, tz, pos, rot):
+    """pos <- c + q (pos - c) + t, rot <- q rot (in place)."""
+    px, py, pz = quat_rotate_t(q, (pos[0] - cx, pos[1] - cy, pos[2] - cz))
+    pos[0] = cx + px + tx
+    pos[1] = cy + py + ty
+    pos[2] = cz + pz + tz
+    q0, q1, q2, q3 = quat_normalize_t(quat_mul_t(q, rot))
+    rot[0] = q0
+    rot[1] = q1
+    rot[2] = q2
+    rot[3] = q3
+
+
+@njit(cache=True)
+def _stand_hip(root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, hip, attach, hip_local):
+    """Where a standing leg's hip joint will be (``stand_feet``): carried by the root
+    (``hip``: in the root's frame at rest), or by the goal of the spine body it hangs from
+    (``attach``, ``hip_local``: the hip in that body's frame) as far as that goal holds the
+    body (the lesser of its position and rotation weights, ``lam``, returned last)."""
+    hx, hy, hz = quat_rotate_t(root_rot, hip)
+    hx += root_pos[0]
+    hy += root_pos[1]
+    hz += root_pos[2]
+    lam = 0.0
+    if attach > 0:
+        lam = min(max(min(goal_pw[attach], goal_rw[attach]), 0.0), 1.0)
+    if lam > 0.0:
+        gx, gy, gz = quat_rotate_t(goal_rot[attach], hip_local)
+        hx += lam * (goal_pos[attach, 0] + gx - hx)
+        hy += lam * (goal_pos[attach, 1] + gy - hy)
+        hz += lam * (goal_pos[attach, 2] + gz - hz)
+    return hx, hy, hz, lam
 
 
 @njit(cache=True)

@@ -519,10 +519,10 @@ def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
     call = s.stand_call
     if call is None or call.args[0] is not rows:
         c = s.creature
-        rigid, hip, ankle, reach = _standing_legs(c)
+        legs = _standing_legs(c)
         call = s.stand_call = BoundKernel(RK.stand_feet, (rows, s.stand, c.leg_foot, c.body_rest_pos, c.body_rest_rot,
                                                           s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos,
-                                                          s.root_rot, rigid, hip, ankle, reach))
+                                                          s.root_rot) + legs + (_spine_carry(c), np.zeros((c.nleg, 8))))
     call.call()
     call = s.ground_call
     if call is None or call.args[0] is not rows:
@@ -550,25 +550,57 @@ def _body_floor(c: Creature) -> np.ndarray:
 _FLOORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+def _spine_carry(c: Creature) -> np.ndarray:
+    """(nbody,) bool: the spine bodies but the root, whose goals the standing stage moves
+    with the root (``RK.stand_feet``)."""
+    out = np.array(c.body_is_spine, np.bool_)
+    out[0] = False
+    return out
+
+
 def _standing_legs(c: Creature) -> tuple:
     """Per leg, for the standing stage (``RK.stand_feet``): knee-less or not (one segment
     from the hip to the foot: the leg's bodies are its root and its foot), the hip joint in
-    the root's frame, the ankle in the foot's frame (from its origin), and the hip-to-ankle
-    length. Made once per creature."""
+    the root's frame, the ankle in the foot's frame (from its origin), the hip-to-ankle
+    length, the chain's length (hip to ankle along the joints; for a pivot foot, the
+    segment plus the foot's reach to its contact point), and for a pivot foot (see
+    ``engine.gait.rig``) its knee row (rest foot joint - rest origin, segment length; zero
+    for every other foot) and its contact point from its origin, at rest in character space
+    and in the foot's frame; the spine body the leg hangs from and the hip in its frame.
+    Made once per creature."""
     hit = _LEGS.get(c)
     if hit is None:
+        from engine.gait.rig import _pivot, contact_point
+        from engine.mathx import quat_conj, quat_rotate
+
         n = c.nleg
         rigid = np.array([int(c.leg_body_num[k]) == 2 for k in range(n)], np.bool_)
         hip = np.zeros((n, 3))
         ankle = np.zeros((n, 3))
         reach = np.zeros(n)
+        chain = np.zeros(n)
+        knee = np.zeros((n, 4))
+        contact = np.zeros((n, 3))
+        contact_local = np.zeros((n, 3))
         for k in range(n):
             f = int(c.leg_foot[k])
             top = int(c.limb_root[c.body_limb[f]])
             hip[k] = c.body_rootrel_joint[top]
             ankle[k] = -c.body_joint_offset[f]
             reach[k] = float(np.linalg.norm(c.body_rootrel_joint[f] - c.body_rootrel_joint[top]))
-        hit = _LEGS[c] = (rigid, hip, ankle, reach)
+            chain[k] = float(c.body_limb_length[f])
+            contact[k] = contact_point(c, f) - c.body_rest_pos[f]
+            contact_local[k] = quat_rotate(quat_conj(c.body_rest_rot[f]), contact[k])
+            piv = _pivot(c, f, c.body_joint[top], reach[k]) if rigid[k] else None
+            if piv is not None:
+                knee[k, :3] = piv[0]
+                knee[k, 3] = reach[k]
+                chain[k] = reach[k] + float(np.linalg.norm(piv[1] - piv[0]))
+        attach = np.array([int(c.body_spine_attach[int(c.leg_foot[k])]) for k in range(n)], np.int64)
+        hip_local = np.array([quat_rotate(quat_conj(c.body_rest_rot[attach[k]]),
+                                          c.body_joint[int(c.limb_root[c.body_limb[int(c.leg_foot[k])]])]
+                                          - c.body_rest_pos[attach[k]]) for k in range(n)]).reshape(n, 3)
+        hit = _LEGS[c] = (rigid, hip, ankle, reach, chain, knee, contact, contact_local, attach, hip_local)
     return hit
 
 

@@ -239,6 +239,40 @@ def test_standing_feet_stay_on_the_ground_while_the_body_moves(human):
     assert lowest[False] < rest_low - 0.1
 
 
+def test_standing_feet_hold_a_root_lifted_past_the_legs_reach(human):
+    """A clip that lifts the root above the rest height (the legs nearly straight at rest)
+    would pull the feet off their spots: the standing stage keeps every hip within its
+    leg's chain of its planted foot, so the root stays where the legs can hold it and the
+    feet do not move (the paper's planted feet; the grid's standing_slide)."""
+    anim = animation_from_text(CROUCH_ROOT_ONLY.replace("crouch_root_only", "rise_root_only")
+                               .replace("v: [0, 0, 0.3]", "v: [0, 0, -0.3]"))
+    feet = human.leg_foot
+    ch = Character(human)
+    ch.play(anim, fade=0.0, loop=False)
+    for k in range(30):
+        ch.tick(DT)
+        assert np.all(np.isfinite(ch.world_positions))
+        assert np.allclose(ch.world_positions[feet], human.body_rest_pos[feet], atol=1e-4), k
+    # the root rose only as far as the legs reach (not the 30% of its height asked)
+    assert ch.world_positions[0, 2] < human.body_rest_pos[0, 2] + 0.01 * human.size[2]
+
+
+def test_pivot_feet_stay_planted_while_the_root_sways():
+    """The centipede's 24 knee-less legs end in long tibiae (pivot feet, engine.gait.rig):
+    ``perform`` sways and yaws the root, which the planted legs cannot follow. Standing turns
+    each tibia about its contact point and turns the root back as far as the legs need, so
+    no contact point slides (it slid 0.94 of a leg before)."""
+    from engine.validation.cell import CellContext
+    from engine.validation.ground import ground
+    from engine.validation.record import record_cell
+    from engine.validation.thresholds import FAIL, verdict
+
+    c = engine.load_creature("creatures/centipede.yaml")
+    rec = record_cell(c, load_animation("animations/perform.yaml"), 0, settle=0.2)
+    m = {x.name: x for x in ground(rec, CellContext.for_creature(c))}["standing_slide"]
+    assert verdict("standing_slide", m.value) != FAIL, (m.value, m.body, m.time)
+
+
 CROUCH_ROOT_ONLY = """\
 format: 1
 name: crouch_root_only

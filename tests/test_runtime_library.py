@@ -53,8 +53,6 @@ IK_GROUND = ("the IK has no ground: a body between goals (an arm's middle, a spi
              "z = 0 while every goal is above it (needs a ground constraint in the IK's phases, engine/ik/_kernels.py)")
 PASSIVE_GROUND = ("a passive body (Jiggles) hanging from a body that is itself at the ground: the jiggle ground "
                   "contact turns it about its joint, and the joint is already low")
-KNEELESS = ("a knee-less leg on a spine segment the clip moves: the standing stage holds the root where the "
-            "stilts can be, not the segment the leg hangs from, so the IK misses the foot and it dips")
 PASSIVE_POP = ("a passive detail body (Jiggles) turning fast where the spine body it hangs from now swings to "
                "point at its neighbour's joint")
 SPIDER_PALP = "the palps' goals are beyond what the palp's limb can reach in the pose the spine takes"
@@ -162,7 +160,7 @@ _known(IK_ARC, "rotation_pop", ""
        "random_112 perform 0.528; random_114 pick_up_rock 0.682; random_116 dance 0.523; random_116 hold_platter 1.497; "
        "random_116 perform 0.627; random_117 pick_fruit 0.727; "
        "random_117 point_at_target 0.695")
-_known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; inchworm crouch 0.0553; inchworm jump_in_place 0.0497; "
+_known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; crawler perform 0.0228; inchworm crouch 0.0553; inchworm jump_in_place 0.0497; "
        "inchworm nod_at_target 0.0355; inchworm perform 0.049; octopus clap 0.0763; "
        "octopus dance 0.097; octopus eat_fruit 0.2153; octopus hand_to_mouth 0.2224; octopus hold_platter 0.163; "
        "octopus hug 0.1346; octopus perform 0.0806; octopus pick_up_rock 0.0281; octopus shrug 0.0229; "
@@ -177,8 +175,6 @@ _known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_he
        "random_117 shrug 0.0813; random_117 wave 0.0237")
 _known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312")
 _known(SPINE_BRACE, "rotation_pop", "random_107 pound_ground 0.7554")
-_known(KNEELESS, "below_ground", "centipede dance 0.0211; centipede perform 0.1357; centipede roar 0.038")
-_known(KNEELESS, "reach_miss", "centipede dance 0.0633; centipede perform 0.1794")
 _known(SPIDER_PALP, "beyond_reach", "spider dance 0.2052; spider eat_fruit 0.2052; spider perform 0.2052; "
        "spider pick_fruit 0.2052; spider pound_ground 0.2052")
 _known(SPIDER_PALP, "reach_miss", "spider eat_fruit 0.0866; spider hand_to_mouth 0.5444; spider punch 0.265")

@@ -6,7 +6,8 @@ has its lowest corners at 0; a ground-relative channel at z_g = 1 rests a box on
 ground, not in it.
 
 ``standing_slide`` (leg length): while a foot stands (the standing stage holds it at its
-rest spot: full weight, goal exactly there), how far its contact point (the centre of the
+rest spot: full weight, the goal's contact point exactly at rest; a pivot foot's goal turns
+about that point), how far its contact point (the centre of the
 foot box's lowest face at rest, carried by the foot's pose) moves from where that stance
 began, over the leg's length. A planted foot must not skate.
 """
@@ -37,12 +38,14 @@ def ground(rec, ctx) -> list[Measure]:
     if feet.size == 0:
         out.append(Measure("standing_slide", 0.0, "leg"))
         return out
-    goal = rec.goal_pos[:, feet]
-    standing = (rec.goal_pw[:, feet] >= 1.0) & (np.linalg.norm(goal - c.body_rest_pos[feet][None], axis=-1) < 1e-9)
-    u = rec.world_rot[:, feet, 1:]
     v = ctx.foot_contact_local[None, :, :]
-    tt = 2.0 * np.cross(u, v)
-    contact = rec.world_pos[:, feet] + v + rec.world_rot[:, feet, :1] * tt + np.cross(u, tt)
+    # where the goal puts the contact point: a pivot foot's goal turns about it (the
+    # standing stage keeps a knee-less leg's joint on its segment), so the contact point
+    # of the goal, not its origin, is what stands at its rest spot
+    goal_contact = _carry(rec.goal_pos[:, feet], rec.goal_rot[:, feet], v)
+    rest_contact = _carry(c.body_rest_pos[feet][None], c.body_rest_rot[feet][None], v)
+    standing = (rec.goal_pw[:, feet] >= 1.0) & (np.linalg.norm(goal_contact - rest_contact, axis=-1) < 1e-9)
+    contact = _carry(rec.world_pos[:, feet], rec.world_rot[:, feet], v)
     # each standing frame against the first frame of its stance (the latest frame where
     # standing began, carried forward)
     began = standing & ~np.vstack([np.zeros((1, feet.size), bool), standing[:-1]])
@@ -51,3 +54,10 @@ def ground(rec, ctx) -> list[Measure]:
     slide = np.where(standing, np.linalg.norm(contact - start, axis=-1), 0.0) / ctx.leg_length[None, :]
     out.append(worst("standing_slide", slide, "leg", [c.body_names[f] for f in feet], rec.t))
     return out
+
+
+def _carry(pos, rot, v):
+    """pos + rot * v over broadcast leading axes (rot w-first)."""
+    u = rot[..., 1:]
+    tt = 2.0 * np.cross(u, v)
+    return pos + v + rot[..., :1] * tt + np.cross(u, tt)
