@@ -500,15 +500,20 @@ def _skin_matrices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: lis
     return np.array([world[j] @ ibm[k] for k, j in enumerate(joints)])
 
 
-def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], notes: list[str]):
-    """Rest-skinned vertex positions (glTF world axes) and per-vertex (joint slot, weight)."""
+def _skinned_vertices(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], notes: list[str],
+                      primitives: list | None = None):
+    """Rest-skinned vertex positions (glTF world axes) and per-vertex (joint slot, weight).
+    ``primitives``: a list that also gets each primitive's ``(mesh, index, primitive, POSITION,
+    slots, weights, skinning matrices, skinned positions)`` for every vertex (``_source_mesh``)."""
     skin_mat = _skin_matrices(gf, skin_index, world, joints)
     all_pos, all_slot, all_w = [], [], []
-    for _ni, _mi, _pi, _prim, pos, jj, ww in _skin_primitives(gf, skin_index, len(joints), notes):
+    for _ni, mi, pi, prim, pos, jj, ww in _skin_primitives(gf, skin_index, len(joints), notes):
         ok = ww.sum(axis=1) > 0
         hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
         mats = np.einsum("vk,vkab->vab", ww, skin_mat[jj])  # (nv, 4, 4)
         skinned = np.einsum("vab,vb->va", mats, hom)[:, :3]
+        if primitives is not None:
+            primitives.append((mi, pi, prim, pos, jj, ww, mats, skinned))
         all_pos.append(skinned[ok])
         all_slot.append(jj[ok])
         all_w.append(ww[ok])
@@ -552,25 +557,24 @@ _MATERIAL_KEYS = ("name", "doubleSided", "alphaMode", "alphaCutoff", "emissiveFa
 _PBR_KEYS = ("baseColorFactor", "metallicFactor", "roughnessFactor")
 
 
-def _source_mesh(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[int], slot_body: np.ndarray,
-                 scale: float, shift: np.ndarray, bind_pos: np.ndarray, bind_rot: np.ndarray,
-                 body_names: list[str]) -> SourceMesh | None:
-    """The skin's triangle primitives as one ``SourceMesh`` (see there); None without any."""
+def _source_mesh(gf: GltfFile, skinned_prims: list, slot_body: np.ndarray, scale: float, shift: np.ndarray,
+                 bind_pos: np.ndarray, bind_rot: np.ndarray, body_names: list[str]) -> SourceMesh | None:
+    """The skin's triangle primitives (as ``_skinned_vertices`` skinned them at rest) as one
+    ``SourceMesh`` (see there); None without any."""
     C = GLTF_TO_MENAGERIE
     notes: list[str] = []
-    skin_mat = _skin_matrices(gf, skin_index, world, joints)
+    nb = int(slot_body.max()) + 1
     pos_all, nrm_all, jnt_all, wgt_all, idx_all, prims, mat_of = [], [], [], [], [], [], {}
     has_normals = True
     nv = 0
     n_index = 0
     dropped_tex = False
-    for _ni, mi, pi, prim, pos, jj, ww in _skin_primitives(gf, skin_index, len(joints), []):
+    for mi, pi, prim, pos, jj, ww, mats, skinned in skinned_prims:
         mode = prim.mode if prim.mode is not None else 4
         if mode != 4:
             notes.append(f"mesh {mi} primitive {pi}: mode {mode} is not triangles; left out")
             continue
         body = slot_body[jj]                                   # (nv, k)
-        nb = int(slot_body.max()) + 1
         acc = np.zeros((len(pos), nb))
         np.add.at(acc, (np.repeat(np.arange(len(pos)), jj.shape[1]), body.ravel()), ww.ravel())
         none = acc.sum(axis=1) <= 0
@@ -579,14 +583,12 @@ def _source_mesh(gf: GltfFile, skin_index: int, world: np.ndarray, joints: list[
         w4 = np.take_along_axis(acc, top, axis=1)
         w4 /= w4.sum(axis=1, keepdims=True)
         top = np.where(w4 > 0, top, 0)
-        mats = np.einsum("vk,vkab->vab", ww, skin_mat[jj])
-        mats[none] = np.eye(4)
-        hom = np.concatenate([pos, np.ones((len(pos), 1))], axis=1)
-        p_g = np.einsum("vab,vb->va", mats, hom)[:, :3]
+        p_g = np.where(none[:, None], pos, skinned)          # a vertex no joint weighs stays put
         pos_all.append(scale * (p_g @ C.T) + shift)
         if prim.attributes.NORMAL is not None and has_normals:
             n = read_accessor(gf, prim.attributes.NORMAL)
-            n_g = np.einsum("vab,vb->va", mats[:, :3, :3], n)
+            rot = np.where(none[:, None, None], np.eye(3), mats[:, :3, :3])
+            n_g = np.einsum("vab,vb->va", rot, n)
             n_m = n_g @ C.T
             nrm_all.append(n_m / np.maximum(np.linalg.norm(n_m, axis=1, keepdims=True), 1e-12))
         else:
@@ -770,7 +772,8 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
 
     # Deformation per joint: summed weights, then keep joints that deform or have a deforming joint below.
     notes: list[str] = []
-    vpos, vslot, vw = _skinned_vertices(gf, skin, world, joints, notes)
+    skinned_prims: list | None = [] if mesh else None
+    vpos, vslot, vw = _skinned_vertices(gf, skin, world, joints, notes, skinned_prims)
     slot_of = {j: k for k, j in enumerate(joints)}
     weight = np.zeros(len(joints))
     np.add.at(weight, vslot.ravel(), vw.ravel())
@@ -941,8 +944,7 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
             while a >= 0 and a not in body_of_slot:
                 a = jparent[a]
             slot_body[k] = body_of_slot[a] + offset if a >= 0 else 0
-        source_mesh = _source_mesh(gf, skin, world, joints, slot_body, scale, shift, file_box[0], file_box[1],
-                                   names)
+        source_mesh = _source_mesh(gf, skinned_prims, slot_body, scale, shift, file_box[0], file_box[1], names)
     relaxed = []
     if rest == "relaxed":
         from engine.model.rest_pose import relax_arms
