@@ -423,3 +423,96 @@ def test_rest_from_a_capture_frame(tmp_path):
     out = tmp_path / "walk100.yaml"
     assert main(["creatures", "from-bvh", path, "--out", str(out), "--rest-frame", "100"]) == 0
     assert load_creature(out).nleg == 2
+
+
+# Hand-made skeletons of kinds neither the shared rigs nor the library have (Y up, Z forward,
+# centimetres, joints named j0, j1, ...): (name, offset, children) trees.
+def _side(tree):
+    name, (x, y, z), kids = tree
+    return [tree, (name + "r", (-x, y, z), [_side(k)[1] for k in kids])]
+
+
+def _chain(prefix, offsets):
+    node = None
+    for i in reversed(range(len(offsets))):
+        node = (f"{prefix}{i}", offsets[i], [node] if node else [])
+    return node
+
+
+HELD_OUT = {
+    # a frog crouched on long hind feet and short forelegs: four legs
+    "frog": (("pelvis", (0, 10, 0), [
+        *_side(_chain("hind", [(3, 0, -1), (5, -3, 5), (1, -4, -7), (1, -3, 5), (1, 0, 4)])),
+        ("sp1", (0, 2, 5), [("sp2", (0, 1, 5), [
+            ("skull", (0, 1, 4), [("snout", (0, 0, 4), [])]),
+            *_side(_chain("fore", [(3, -1, 1), (1, -5, 2), (0, -5, 1), (1, -2, 2)]))])])]),
+        (4, 0, 1, 0)),
+    # an armless walker: two digitigrade legs under a hip block, a cab with a sensor on top
+    "mech": (("hip", (0, 100, 0), [
+        *_side(_chain("strut", [(20, 0, 0), (2, -45, 15), (0, -45, -20), (0, -10, 8), (0, 0, 18)])),
+        ("turret", (0, 20, 0), [("cab", (0, 15, 5), [("sensor", (0, 10, 20), [])])])]),
+        (2, 0, 1, 0)),
+    # a shark: pectoral fins, a dorsal fin, a tail with a forked fluke: no legs, one tail
+    "shark": (("body", (0, 60, 0), [
+        ("fore", (0, 0, 25), [("skull", (0, 0, 25), [("jaw", (0, -5, 15), []), ("snout", (0, 0, 20), [])]),
+                              *_side(_chain("fin", [(12, -6, 0), (20, -10, -10)])),
+                              ("dorsal", (0, 15, -10), [("dorsal1", (0, 20, -10), [])])]),
+        ("aft", (0, 0, -30), [("aft1", (0, 0, -30), [("aft2", (0, 0, -25), [
+            ("aft3", (0, 0, -20), [("up", (0, 20, -20), []), ("dn", (0, -12, -12), [])])])])])]),
+        (0, 0, 1, 1)),
+    # a hand lying flat: four fingers and a thumb, nothing a person calls a leg or a head
+    "hand": (("wrist", (0, 3, 0), [("palm", (0, 0, 4), [
+        *[_chain(f, [base, (0, 0, 3), (0, 0, 2.4), (0, 0, 1.9)])
+          for f, base in (("a", (-3, 0, 4)), ("b", (-1, 0, 5)), ("c", (1, 0, 5)), ("d", (3, 0, 4)))],
+        _chain("t", [(-4, 0, -1), (-2, 0, 2), (-1, 0, 2), (0, 0, 2)])])]),
+        (0, 0, 0, 0)),
+}
+
+
+def _skeleton_bvh(tree):
+    lines, count = ["HIERARCHY"], [0]
+
+    def emit(node, depth):
+        _, off, kids = node
+        pad = "\t" * depth
+        lines.append(f"{pad}{'ROOT' if depth == 0 else 'JOINT'} j{count[0]}")
+        count[0] += 1
+        lines.extend([f"{pad}{{", f"{pad}\tOFFSET {off[0]} {off[1]} {off[2]}",
+                  f"{pad}\tCHANNELS " + ("6 Xposition Yposition Zposition " if depth == 0 else "3 ")
+                  + "Zrotation Yrotation Xrotation"])
+        for k in kids:
+            emit(k, depth + 1)
+        if not kids:
+            lines.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET 0 0 0", f"{pad}\t}}"])
+        lines.append(f"{pad}}}")
+
+    emit(tree, 0)
+    root = tree[1]
+    lines += ["MOTION", "Frames: 1", "Frame Time: 0.0333333",
+              " ".join(str(v) for v in (*root, *([0] * (3 * count[0]))))]
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("name", [
+    "frog", "mech",
+    pytest.param("shark", marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 15: the two-body pectoral fins reach the lowest point of a grounded shark, so they "
+        "count as 2 legs, and the dorsal fin, rising back off the front body, as a second tail "
+        "(measured: legs 2, tails 2)"))),
+    pytest.param("hand", marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 15: in a hand lying flat every finger reaches the ground, so four are legs and the "
+        "thumb's end is the head (measured: legs 4, heads 1); a leg should have to come down "
+        "through its joints, not only through its boxes' thickness"))),
+])
+def test_hand_made_skeletons_of_new_kinds_get_a_persons_counts(tmp_path, name):
+    from engine.io.bvh_creature import creature_from_bvh
+    from engine.model.caps import CAP_BIT
+
+    tree, want = HELD_OUT[name]
+    path = tmp_path / f"{name}.bvh"
+    path.write_text(_skeleton_bvh(tree))
+    c = creature_from_bvh(path, scale=0.01, rest="file")
+    k = c.counts()
+    tail = (c.body_caps & CAP_BIT["tail"]) != 0
+    tails = int(sum(1 for i in range(c.nbody) if tail[i] and not (c.body_parent[i] >= 0 and tail[c.body_parent[i]])))
+    assert (k["legs"], k["arms"], k["heads"], tails) == want, (name, k, tails)
