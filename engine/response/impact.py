@@ -221,7 +221,11 @@ class ImpactResponse:
         rate, window = (RATE, WINDOW) if library is None else (library.rate, library.window)
         self._frame_dt = 1.0 / rate
         self._recoil = 0.0
-        nrec = int(math.ceil((p.match_max + p.contact_push) / self._frame_dt)) + window + 1
+        # Simulation 1's frames: the search's latest start is match_max (the contact push moves
+        # the earliest one, never past match_max), and a window after it; +1 for the rounding
+        # of k0. (It was sized by match_max + contact_push: 45 frames, 8 of them never read,
+        # a fifth of the lookahead's cost.)
+        nrec = int(math.ceil(p.match_max / self._frame_dt)) + window + 1
         self._sim1_pos = np.zeros((nrec, n, 3))
         self._sim1_rot = np.zeros((nrec, n, 4))
         self.root_trace: list = []    # (time since start, phase, root z) per tick, for plots
@@ -438,7 +442,9 @@ class ImpactResponse:
         lo = max(lo, self.time + self._frame_dt)               # never in the past
         k0 = int(math.ceil(lo / self._frame_dt))
         k1 = int(p.match_max / self._frame_dt)
-        k1 = max(k0, min(k1, self._sim1_count - self.library.window))
+        last = self._sim1_count - self.library.window        # the last start with a whole window
+        k1 = min(max(k0, min(k1, last)), last)
+        k0 = min(k0, k1)
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
         g = self.char.gait
