@@ -242,6 +242,30 @@ class ImpactResponse:
     def reacting(self) -> bool:
         return self.phase != "idle"
 
+    def prepare(self) -> float:
+        """Build (or load) the motion library and load the response's kernels now, so the
+        first hit costs a tick what any later one does; returns the seconds it took. Without
+        it the first hit's tick pays both: measured (benchmarks/impact.py, quiet machine) a
+        37 ms slice for the kernels' first call in a process, and the library's build (1.4 s
+        for the humanoid) inside the first search. State is left as it was."""
+        import time
+
+        t0 = time.perf_counter()
+        lib = self.library
+        c = self.char.creature
+        pos = np.asarray(self.char.world_positions, float)
+        rot = np.asarray(self.char.world_rotations, float)
+        s = state_from_kinematic(self.model1, *self._lock_leaves(pos, rot))
+        if self.stand1 is not None:
+            ref = self.stand1.ref.copy()
+            self.stand1.apply(s)
+            np.copyto(self.stand1.ref, ref)
+        step(self.model1, s, self._frame_dt, substeps=1)
+        W = lib.window
+        feats = window_features(c, np.repeat(pos[None], W + 1, 0), np.repeat(rot[None], W + 1, 0))
+        search(lib, feats, 0, 1, allow_gait=False)
+        return time.perf_counter() - t0
+
     # -- the hit -----------------------------------------------------------------------
 
     def hit(self, body, impulse, point=None, duration: float = 0.0, *, recoil: float = 0.0) -> None:
