@@ -420,10 +420,12 @@ class ImpactResponse:
             self._sim1_count = k + 1
 
     def _advance_sim1(self, dt: float) -> None:
-        """Simulation 1 in slices: all of its lookahead done by the end of the delay."""
+        """Simulation 1 in slices: all of its lookahead done a tick before the end of the
+        delay, so the search's tick carries no slice (the humanoid's worst tick of a response
+        was that one: a slice of 4 frames plus the search)."""
         p = self.params
         total = self._sim1_pos.shape[0] - 1
-        ticks_left = max(1, int(math.ceil((p.reaction_delay - self.time + dt) / dt - 1e-9)))
+        ticks_left = max(1, int(math.ceil((p.reaction_delay - self.time) / dt - 1e-9)))
         want = min(total, self._sim1_count - 1 + int(math.ceil((total - (self._sim1_count - 1)) / ticks_left)))
         sub = max(1, int(math.ceil(self._frame_dt / p.lookahead_substep)))
         while self._sim1_count - 1 < want:
