@@ -405,6 +405,16 @@ class Character:
         self.response.hit(body, impulse, point, duration)
         _REACTING.add(self)
 
+    def prepare_impacts(self) -> float:
+        """Make the impact response now (its motion library built or loaded from the disk
+        cache, its kernels loaded), so the first ``hit`` does not pay for it inside a game
+        frame; returns the seconds taken (``ImpactResponse.prepare``)."""
+        if self.response is None:
+            from engine.response.impact import ImpactResponse
+
+            self.response = ImpactResponse(self)
+        return self.response.prepare()
+
     @property
     def reacting(self) -> bool:
         """Whether an impact response is running (``response.phase``, ``response.clip``)."""

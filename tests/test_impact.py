@@ -147,6 +147,20 @@ def test_same_hits_same_poses_bit_for_bit():
     assert out[0] == out[1]
 
 
+def test_prepare_leaves_the_response_as_it_was():
+    # prepare_impacts builds the library and loads the kernels ahead of the first hit; the
+    # hits after it must give the same poses as without it (it must not leave state behind)
+    out = []
+    for prep in (False, True):
+        ch = _standing("dog")
+        if prep:
+            took = ch.prepare_impacts()
+            assert took > 0.0 and ch.response._library is not None and not ch.reacting
+        _run(ch, [(0, 1, (0, 30, 0)), (12, 0, (-20, 0, 0))], seconds=1.5)
+        out.append((ch.world_positions.tobytes(), ch.world_rotations.tobytes()))
+    assert out[0] == out[1]
+
+
 @pytest.mark.parametrize("body,impulse,msg", [
     ("no_such_body", (1, 0, 0), "no body 'no_such_body'"),
     (99, (1, 0, 0), "out of range"),

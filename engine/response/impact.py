@@ -221,7 +221,11 @@ class ImpactResponse:
         rate, window = (RATE, WINDOW) if library is None else (library.rate, library.window)
         self._frame_dt = 1.0 / rate
         self._recoil = 0.0
-        nrec = int(math.ceil((p.match_max + p.contact_push) / self._frame_dt)) + window + 1
+        # Simulation 1's frames: the search's latest start is match_max (the contact push moves
+        # the earliest one, never past match_max), and a window after it; +1 for the rounding
+        # of k0. (It was sized by match_max + contact_push: 45 frames, 8 of them never read,
+        # a fifth of the lookahead's cost.)
+        nrec = int(math.ceil(p.match_max / self._frame_dt)) + window + 1
         self._sim1_pos = np.zeros((nrec, n, 3))
         self._sim1_rot = np.zeros((nrec, n, 4))
         self.root_trace: list = []    # (time since start, phase, root z) per tick, for plots
@@ -237,6 +241,30 @@ class ImpactResponse:
     @property
     def reacting(self) -> bool:
         return self.phase != "idle"
+
+    def prepare(self) -> float:
+        """Build (or load) the motion library and load the response's kernels now, so the
+        first hit costs a tick what any later one does; returns the seconds it took. Without
+        it the first hit's tick pays both: measured (benchmarks/impact.py, quiet machine) a
+        37 ms slice for the kernels' first call in a process, and the library's build (1.4 s
+        for the humanoid) inside the first search. State is left as it was."""
+        import time
+
+        t0 = time.perf_counter()
+        lib = self.library
+        c = self.char.creature
+        pos = np.asarray(self.char.world_positions, float)
+        rot = np.asarray(self.char.world_rotations, float)
+        s = state_from_kinematic(self.model1, *self._lock_leaves(pos, rot))
+        if self.stand1 is not None:
+            ref = self.stand1.ref.copy()
+            self.stand1.apply(s)
+            np.copyto(self.stand1.ref, ref)
+        step(self.model1, s, self._frame_dt, substeps=1)
+        W = lib.window
+        feats = window_features(c, np.repeat(pos[None], W + 1, 0), np.repeat(rot[None], W + 1, 0))
+        search(lib, feats, 0, 1, allow_gait=False)
+        return time.perf_counter() - t0
 
     # -- the hit -----------------------------------------------------------------------
 
@@ -392,10 +420,12 @@ class ImpactResponse:
             self._sim1_count = k + 1
 
     def _advance_sim1(self, dt: float) -> None:
-        """Simulation 1 in slices: all of its lookahead done by the end of the delay."""
+        """Simulation 1 in slices: all of its lookahead done a tick before the end of the
+        delay, so the search's tick carries no slice (the humanoid's worst tick of a response
+        was that one: a slice of 4 frames plus the search)."""
         p = self.params
         total = self._sim1_pos.shape[0] - 1
-        ticks_left = max(1, int(math.ceil((p.reaction_delay - self.time + dt) / dt - 1e-9)))
+        ticks_left = max(1, int(math.ceil((p.reaction_delay - self.time) / dt - 1e-9)))
         want = min(total, self._sim1_count - 1 + int(math.ceil((total - (self._sim1_count - 1)) / ticks_left)))
         sub = max(1, int(math.ceil(self._frame_dt / p.lookahead_substep)))
         while self._sim1_count - 1 < want:
@@ -438,7 +468,9 @@ class ImpactResponse:
         lo = max(lo, self.time + self._frame_dt)               # never in the past
         k0 = int(math.ceil(lo / self._frame_dt))
         k1 = int(p.match_max / self._frame_dt)
-        k1 = max(k0, min(k1, self._sim1_count - self.library.window))
+        last = self._sim1_count - self.library.window        # the last start with a whole window
+        k1 = min(max(k0, min(k1, last)), last)
+        k0 = min(k0, k1)
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
         g = self.char.gait
