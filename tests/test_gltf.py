@@ -493,17 +493,7 @@ def _skeleton_bvh(tree):
     return "\n".join(lines) + "\n"
 
 
-@pytest.mark.parametrize("name", [
-    "frog", "mech",
-    pytest.param("shark", marks=pytest.mark.xfail(strict=True, reason=(
-        "issue 15: the two-body pectoral fins reach the lowest point of a grounded shark, so they "
-        "count as 2 legs, and the dorsal fin, rising back off the front body, as a second tail "
-        "(measured: legs 2, tails 2)"))),
-    pytest.param("hand", marks=pytest.mark.xfail(strict=True, reason=(
-        "issue 15: in a hand lying flat every finger reaches the ground, so four are legs and the "
-        "thumb's end is the head (measured: legs 4, heads 1); a leg should have to come down "
-        "through its joints, not only through its boxes' thickness"))),
-])
+@pytest.mark.parametrize("name", ["frog", "mech", "shark", "hand"])
 def test_hand_made_skeletons_of_new_kinds_get_a_persons_counts(tmp_path, name):
     from engine.io.bvh_creature import creature_from_bvh
     from engine.model.caps import CAP_BIT

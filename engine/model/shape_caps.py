@@ -91,6 +91,27 @@ TRUNK_MIN_BODIES = 3
 #: A side chain off the head reaching less than this fraction of the size is an ear or an
 #: eye (a longer one is a limb: a crab's claws and legs hang off its carapace, the head).
 EAR_MAX_FRACTION = 0.2
+#: A leg comes down through its joints: its lowest joint (or bone end) lies at least this
+#: fraction of the way from where it leaves the body down to the ground. A box's thickness
+#: does not make a leg (a shark's pectoral fin, a finger lying flat). Library and random
+#: 500-559 legs: 0.75 and up; the shark's fins 0.40, a flat hand's fingers 0.
+LEG_DESCENT_FRACTION = 0.6
+#: A free side chain whose far end lies behind its root by more than this fraction of its
+#: reach, going out more than down, sweeps back: a fin or a wing, not an arm (arms reach
+#: forward, out or down; library and random 500-559 arms: forward component 0.04 and up).
+SWEEP_BACK_FRACTION = 0.2
+#: A swept-back chain spanning at least this fraction of the size, and not angled down by
+#: more than ``WING_MAX_DROOP`` of its reach, is a wing; a shorter or drooping one is a fin.
+#: Library and random 500-559 wings: span 0.20-0.49, droop at most 0.02; the shark's
+#: pectoral fins: span 0.12, droop 0.41.
+WING_MIN_SPAN = 0.16
+WING_MAX_DROOP = 0.2
+#: This many free chains leaving one body and pointing within ``FAN_ANGLE`` degrees of
+#: their mean direction are the fingers of a hand, not arms (an octopus's or a starfish's
+#: arms radiate; a pair of arms points out to either side); another free chain off that
+#: body reaching no farther than the longest finger is its thumb.
+FAN_MIN_CHAINS = 4
+FAN_ANGLE = 15.0
 
 
 def _box_corners(centre, rot, half):
@@ -242,6 +263,18 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         same_parent = pj == pk or (pj > 0 and pk > 0 and sided[pj] and sided[pk])
         if d[k] <= LOCAL_MIRROR_FRACTION * max(bone[j], 1e-9) and same_parent:
             sided[j] = sided[k] = True
+    # A chain lying wholly to one side of the plane, off a body that carries paired side
+    # chains, is a side chain too, partner or not (a thumb beside the fingers, a third arm
+    # beside two): not a candidate for the head.
+    for p in range(n):
+        if not any(sided[c] for c in children[p]):
+            continue
+        for c in children[p]:
+            if sided[c]:
+                continue
+            sub = _subtree(children, c)
+            if len(sub) >= ARM_MIN_BODIES and (np.all(dy[sub] > side_tol) or np.all(dy[sub] < -side_tol)):
+                sided[c] = True
     # A link on the plane whose only child is sided belongs to that side chain (CMU's
     # LHipJoint: a zero-offset joint from the hips to the thigh).
     for j in range(n - 1, 0, -1):
@@ -319,7 +352,15 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         foot = flat[int(np.argmin(flat[:, 2]))]
         drop = joint_pos[c, 2] - foot[2]
         spread = float(np.hypot(*(foot[:2] - joint_pos[c, :2])))
-        return drop > 0 and spread <= LEG_SPREAD_RATIO * drop
+        return drop > 0 and spread <= LEG_SPREAD_RATIO * drop and descends(c)
+
+    def descends(c):
+        """The chain from ``c`` comes down through its joints (and bone ends) most of the way
+        to the ground, not only through the thickness of a box near it."""
+        bodies = _subtree(children, c)
+        low = float(min(joint_pos[bodies, 2].min(), tip[bodies, 2].min()))
+        start = joint_pos[c, 2] - ground
+        return start > 0 and joint_pos[c, 2] - low >= LEG_DESCENT_FRACTION * start
 
     def limb_like(c):
         """A side chain that is a leg or an arm, not a spike or a fin stub."""
@@ -394,20 +435,33 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         mark([foot], ["limb", "foot"], f"foot: the leg's first body near the ground (chain from {names[c]})")
         for b in mp[:k]:
             for d in children[b]:
-                if d not in mp and caps[d] is None and lowest_of(d) <= ground_h and len(main_path(d)) >= 2:
+                if (d not in mp and caps[d] is None and lowest_of(d) <= ground_h and len(main_path(d)) >= 2
+                        and descends(d)):
                     mark_leg(d, s)
         mark(_subtree(children, c), ["detail"], f"detail: past the foot or off the leg's main path ({names[c]})")
 
+    def face_of(mp):
+        """The first body on a main path carrying two or more small leaf bodies and nothing
+        else (eyes, a jaw: a face; a hand's fingers are chains), or None."""
+        for b in mp[1:]:
+            kids = children[b]
+            if len(kids) >= 2 and all(not children[d] and vol[d] < HEAD_TRIM_RATIO * vol[b] for d in kids):
+                return b
+        return None
+
     def neck_head(c):
-        """The head at the end of a rising side chain (a neck), or None."""
+        """The head at the end of a rising side chain (a neck), or None. A chain that does
+        not go down and ends in a face is a neck too, rising or not."""
         mp = main_path(c)
         if len(mp) < 2:
             return None
         length = sum(float(np.linalg.norm(joint_pos[mp[i + 1]] - joint_pos[mp[i]])) for i in range(len(mp) - 1))
         length += float(np.linalg.norm(tip[mp[-1]] - joint_pos[mp[-1]]))
         rise = tip[mp[-1], 2] - joint_pos[c, 2]
-        if rise < NECK_RISE_FRACTION * length or tip[mp[-1], 2] <= joint_pos[head, 2]:
+        if tip[mp[-1], 2] <= joint_pos[head, 2]:
             return None
+        if rise < NECK_RISE_FRACTION * length:
+            return face_of(mp) if rise >= 0 else None
         h = next((b for b in mp[1:] if len(children[b]) >= 2), mp[-1])
         if {"eye", "ear"} & set(named[h] or []):  # an eye on a stalk is not a head
             return None
@@ -422,6 +476,50 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             mark([jaw], ["mouth"], f"mouth: the body hanging lowest off the head {names[h]}")
             mouths.add(h)
         mark(_subtree(children, h), ["detail"], why)
+
+    def rising(c, s):
+        """The chain from ``c`` rises off ``s`` more than it goes back (a dorsal fin)."""
+        d = tip[main_path(c)[-1]] - joint_pos[s]
+        return d[2] > -d[0]
+
+    def sweep(c):
+        """(span, droop) of a side chain whose far end lies behind its root, going out more
+        than down, and that does not come down to the ground (a fin or a wing; an octopus's
+        hind arms come down to the ground and lie out behind it), else None."""
+        d = tip[main_path(c)[-1]] - joint_pos[c]
+        span = float(np.linalg.norm(d))
+        if span <= 0 or d[0] >= -SWEEP_BACK_FRACTION * span or abs(d[1]) <= -d[2] or descends(c):
+            return None
+        return span, max(0.0, -float(d[2]) / span)
+
+    fans: dict[int, set] = {}
+
+    def fan(s):
+        """The free side chains off ``s`` that point the same way, when there are
+        ``FAN_MIN_CHAINS`` or more of them (the digits of a hand), else an empty set."""
+        if s not in fans:
+            dirs = {}
+            for c in children[s]:
+                if sag[c] or is_spine[c] or is_leg(c) or len(main_path(c)) < ARM_MIN_BODIES:
+                    continue
+                d = tip[main_path(c)[-1]] - joint_pos[c]
+                if np.linalg.norm(d) > 0:
+                    dirs[c] = d / np.linalg.norm(d)
+            cos_max = np.cos(np.radians(FAN_ANGLE))
+            while len(dirs) >= FAN_MIN_CHAINS:
+                mean = np.mean(list(dirs.values()), axis=0)
+                mean /= max(float(np.linalg.norm(mean)), 1e-12)
+                worst = min(dirs, key=lambda k: float(dirs[k] @ mean))
+                if float(dirs[worst] @ mean) >= cos_max:
+                    break
+                del dirs[worst]
+            fingers = set(dirs) if len(dirs) >= FAN_MIN_CHAINS else set()
+            if fingers:
+                longest = max(reach[c] for c in fingers)
+                fingers |= {c for c in children[s] if not sag[c] and not is_spine[c] and c not in fingers
+                            and not is_leg(c) and reach[c] <= longest}
+            fans[s] = fingers
+        return fans[s]
 
     # 3. Sagittal branches off the spine; 4. side chains.
     ear_reach = EAR_MAX_FRACTION * size
@@ -452,13 +550,18 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                     mark([c], ["mouth"], f"mouth: a sagittal branch off the head {names[head]}")
                     mark(bodies, ["detail"], f"detail: below the mouth {nm}")
                     mouths.add(head)
+                elif back and len(mp) >= TAIL_MIN_BODIES and s != path[0] and rising(c, s):
+                    mark(bodies, ["detail"], f"detail: a crest or fin rising off {names[s]}, the middle of "
+                                             f"the back (a tail leaves the rear end of the spine)")
                 elif back and len(mp) >= TAIL_MIN_BODIES:
                     mark(bodies, ["tail"], f"tail: a sagittal chain of {len(mp)} bodies going backward off "
                                            f"{names[s]}")
                 else:
                     mark(bodies, ["detail"], f"detail: a short sagittal branch off {names[s]}")
                 continue
-            h = None if leg else neck_head(c)
+            wing = any("wing" in (named[b] or []) for b in mp)
+            # A chain named as a wing, or sweeping back, is no neck: heads look forward.
+            h = None if leg or wing or sweep(c) is not None else neck_head(c)
             if s == head and (reach[c] < ear_reach or not leg and h is None and len(mp) < ARM_MIN_BODIES):
                 hint = named[c] or []
                 cap = "eye" if "eye" in hint else "ear"
@@ -472,7 +575,6 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 mark_head_parts(h, f"detail: part of the head {names[h]}")
                 side_heads.append(h)
                 continue
-            wing = any("wing" in (named[b] or []) for b in mp)
             if leg and not wing:
                 mark_leg(c, s)
             elif wing:
@@ -488,6 +590,27 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 cap = "eye" if "eye" in hint else "ear"
                 mark([mp[-1]], [cap], f"{cap}: on a stalk off {names[s]} (by its name)")
                 mark(bodies, ["detail"], f"detail: the stalk of {names[mp[-1]]}")
+            elif c in fan(s):
+                mark(mp, ["limb"], f"digit: one of {len(fan(s))} free chains off {names[s]}, fingers pointing "
+                                   f"the same way and a thumb (a hand's digits, not arms)")
+                mark(bodies, ["detail"], f"detail: off the digit's main path ({nm})")
+            elif sweep(c) is not None:
+                span, droop = sweep(c)
+                if span >= WING_MIN_SPAN * size and droop <= WING_MAX_DROOP:
+                    mark(mp, ["limb", "wing"], f"wing: a side chain off {names[s]} sweeping back, spanning "
+                                               f"{span / size:.2f} of the size, level or raised")
+                    # A branch off the wing's leading bones is its claw (a bat's thumb).
+                    for b in mp[:-1]:
+                        for d in children[b]:
+                            if (d not in mp and caps[d] is None and len(main_path(d)) <= ARM_MIN_BODIES
+                                    and sweep(d) is None):
+                                mark(_subtree(children, d)[:1], ["limb", "grasper"],
+                                     f"grasper: a claw off the wing {names[c]}")
+                    mark(bodies, ["detail"], "detail: off the wing's main path")
+                else:
+                    mark(mp, ["limb"], f"fin: a side chain off {names[s]} sweeping back, spanning "
+                                       f"{span / size:.2f} of the size, angled down {droop:.2f}")
+                    mark(bodies, ["detail"], f"detail: off the fin's main path ({nm})")
             else:
                 grasp = next((b for b in mp if len(children[b]) >= 2), mp[-1])
                 k = mp.index(grasp)
@@ -495,6 +618,16 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
                 mark([grasp], ["limb", "grasper"], "grasper: where the arm branches into fingers"
                      if len(children[grasp]) >= 2 else "grasper: the arm's last body")
                 mark(bodies, ["detail"], f"detail: past the grasper or off the arm's main path ({nm})")
+    # The front end of the spine is a head when it lies past the limbs (a neck or a front
+    # end) or carries a face (a jaw, eyes, ears, a trunk): a palm carrying only its fingers,
+    # a front body carrying only legs and arms, is no head.
+    limbs_off = [d for d in children[head] if not is_spine[d] and not sag[d] and "limb" in (caps[d] or [])]
+    face = trimmed or [d for d in children[head] if not is_spine[d] and caps[d] is not None
+                       and (sag[d] or {"ear", "eye", "mouth"} & set(caps[d]))]
+    if limbs_off and not face and not side_heads:
+        caps[head] = ["spine"]
+        reasons[head] = ("spine: the front end, not a head: it carries the limbs "
+                         + ", ".join(names[d] for d in limbs_off) + " and no face")
     # Heads on necks that hang off the sagittal head: that body is the shoulders they share
     # (a two-headed creature's chest), not a head itself.
     if any(parent[_chain_start(parent, h, is_spine)] == head for h in side_heads):
