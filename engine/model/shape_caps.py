@@ -23,22 +23,38 @@ creature standing on z = 0:
    head is its mouth. The head may be the root (a crab's carapace). The spine runs from the
    head back to the farthest sagittal body that carries a leg or an arm (a quadruped's hips
    when the file's root is its chest; spikes do not count), then on up to the file's root.
+   The front end is no head when it carries limbs and no face (no small body past it, no
+   jaw, eye, ear or trunk off it, no neck heads): a palm carrying its fingers. A chain lying
+   wholly to one side, off a body that carries paired side chains, is a side chain, not a
+   candidate for the head (a thumb, a third arm).
 3. **Sagittal branches** off the spine: one whose end lies behind where it leaves the
-   spine and that has ``TAIL_MIN_BODIES`` or more bodies is a tail; one off the head is
+   spine and that has ``TAIL_MIN_BODIES`` or more bodies is a tail, unless it leaves the
+   middle of the back (not the spine's rear end) rising more than it goes back: a dorsal
+   fin or crest (detail); one off the head is
    the mouth (its first body; the rest are detail), or a trunk (an arm) with
    ``TRUNK_MIN_BODIES`` or more; any other is detail.
 4. **Side chains** (a sided child of a sagittal body and everything below it). The
    *main path* follows, at each body, the child whose subtree reaches furthest. A chain off
    the head reaching less than ``EAR_MAX_FRACTION`` x size is an ear (or eye, if its name
    says so). A chain of two or more bodies whose lowest box corner is within
-   ``GROUND_FRACTION`` x height of the ground, and lies at most ``LEG_SPREAD_RATIO`` times
-   its drop away sideways (it comes down to the ground rather than lying along it), is a
+   ``GROUND_FRACTION`` x height of the ground, lies at most ``LEG_SPREAD_RATIO`` times
+   its drop away sideways (it comes down to the ground rather than lying along it), and
+   whose joints come down ``LEG_DESCENT_FRACTION`` of the way from its root to the ground
+   (a box's thickness near the ground does not make a leg: a shark's fin) is a
    **leg**: its foot is the first body on the main path whose joint lies below
    ``FOOT_FRACTION`` x the chain's start height (else the last body), later bodies are
    detail; a branch before the foot that reaches the ground too is another leg (a forked
    leg). A chain rising ``NECK_RISE_FRACTION`` of its length to above the head's joint is a
-   neck carrying a **head** (where it branches, else its end); a sagittal head that carries
-   such necks is the shoulders they share, not a head. Any other chain is an **arm**: its
+   neck carrying a **head** (where it branches, else its end), and so is a chain that does
+   not go down and ends in a face (a body carrying two or more small leaves); a sagittal
+   head that carries such necks is the shoulders they share, not a head. A chain whose far
+   end lies behind its root (``SWEEP_BACK_FRACTION``), going out more than down and not
+   coming down to the ground, is a **wing** when it spans ``WING_MIN_SPAN`` x size and is
+   level or raised (``WING_MAX_DROOP``; a short branch off its leading bones that does not
+   sweep back is its claw, a grasper: a bat's thumb), else a **fin** (limb, no grasper).
+   ``FAN_MIN_CHAINS`` free chains off one body pointing within ``FAN_ANGLE`` of each other
+   are a hand's **digits** (limb), with any other free chain there no longer than them
+   (the thumb). Any other chain is an **arm**: its
    grasper is the first body on the main path where it branches in two or more (a hand
    with fingers), else its last body; later bodies and side branches are detail. A chain
    ending in a body named as an eye or an ear is a stalk. A free chain shorter than
