@@ -804,6 +804,49 @@ def _root_influence(P, root_pos, root_rot, sp_pos):
     return qnormalize(qmul(qaxis_angle(rv, ang), root_rot))
 
 
+@njit(cache=True, _nrt=False)
+def spline_arc(p0, v0, a0, p1, v1, a1, t_to, n):
+    """Arc length of the quintic from t = 0 to ``t_to``, measured on ``n`` uniform chords
+    of [0, 1] (linearly within the chord holding ``t_to``); ``spline_param_at_arc`` is its
+    inverse on the same chords."""
+    if t_to <= 0.0:
+        return 0.0
+    prev = p0
+    acc = 0.0
+    for s in range(1, n + 1):
+        cur = hermite5_point(p0, v0, a0, p1, v1, a1, s / n)
+        d = vnorm(vsub(cur, prev))
+        if s == n or s / n >= t_to:
+            return acc + d * min(max((t_to - (s - 1) / n) * n, 0.0), 1.0)
+        acc += d
+        prev = cur
+    return acc
+
+
+@njit(cache=True, _nrt=False)
+def spline_param_at_arc(p0, v0, a0, p1, v1, a1, length, n):
+    """The parameter at which the quintic's arc length from t = 0 (on ``n`` uniform
+    chords, as ``spline_arc``) reaches ``length``; 1 beyond its end."""
+    if length <= 0.0:
+        return 0.0
+    prev = p0
+    acc = 0.0
+    for s in range(1, n + 1):
+        cur = hermite5_point(p0, v0, a0, p1, v1, a1, s / n)
+        d = vnorm(vsub(cur, prev))
+        if acc + d >= length and d > EPS:
+            return (s - 1 + (length - acc) / d) / n
+        acc += d
+        prev = cur
+    return 1.0
+
+
+#: Chords per transport substep on which the spine splines' arc lengths are measured.
+ARC_CHORDS = 16
+#: Bisection steps drawing in a spine spline that bulges past its stretch limit.
+ARC_BISECT = 10
+
+
 @njit(cache=True, _nrt=False, inline="always")
 def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
                        out_pos, out_rot, buckle):
@@ -868,8 +911,15 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
                 rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.dg_rel_rot, d))), wr)
         set4(out_rot, s, rot)
         set3(out_pos, s, vadd(v3(sp_pos, i), qrot(rot, v3(P.b_joint_offset, s))))
-    # Interior spine bodies, by frame transport along each posed spline.
+    # Interior spine bodies, by frame transport along each posed spline, each at the
+    # parameter where the posed spline's arc length is the body's rest share of it (at its
+    # rest parameter a bent or bulging spline spaces the joints further apart or closer
+    # than their bones). A spline longer than its stretch limit allows is drawn in first by
+    # shortening its end tangents (and accelerations, squared), so the bones are not pulled
+    # apart along a bulge; the particles' chord is within that limit already. At rest the
+    # posed spline is the rest spline and every parameter is the rest one.
     nsub = int(P.params[P_SUBSTEPS])
+    narc = ARC_CHORDS * max(nsub, 1)
     for g in range(P.seg_a.shape[0]):
         a = P.seg_a[g]
         b = P.seg_b[g]
@@ -887,11 +937,48 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         a1 = vscale(qrot(rb, v3(P.seg_a1, g)), scale)
         adr = P.seg_body_adr[g]
         num = P.seg_body_num[g]
+        if num == 0:
+            continue
+        # The rest spline (root-relative), as the plan fitted it.
+        qa = q4(P.b_rootrel_rot, A)
+        qb = q4(P.b_rootrel_rot, B)
+        rp0 = v3(P.sp_rest, a)
+        rp1 = v3(P.sp_rest, b)
+        rv0 = qrot(qa, v3(P.seg_v0, g))
+        ra0 = qrot(qa, v3(P.seg_a0, g))
+        rv1 = qrot(qb, v3(P.seg_v1, g))
+        ra1 = qrot(qb, v3(P.seg_a1, g))
+        rest_arc = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, 1.0, narc)
+        arc = spline_arc(p0, v0, a0, p1, v1, a1, 1.0, narc)
+        phi = 1.0
+        for k in range(P.ch_particle.shape[0]):
+            if P.ch_seg[k] == g:
+                phi = P.sc_phi[P.ch_con[k]]
+        limit = phi * rest_arc
+        if rest_arc > EPS and arc > limit:
+            lo = 0.0
+            hi = 1.0
+            for _it in range(ARC_BISECT):
+                f = 0.5 * (lo + hi)
+                if spline_arc(p0, vscale(v0, f), vscale(a0, f * f), p1, vscale(v1, f), vscale(a1, f * f),
+                              1.0, narc) > limit:
+                    hi = f
+                else:
+                    lo = f
+            f = max(lo, 0.5 ** ARC_BISECT)
+            v0 = vscale(v0, f)
+            a0 = vscale(a0, f * f)
+            v1 = vscale(v1, f)
+            a1 = vscale(a1, f * f)
+            arc = spline_arc(p0, v0, a0, p1, v1, a1, 1.0, narc)
         frame = ra
         t_prev = 0.0
         # First pass: transported frames at each interior body's parameter.
         for j in range(adr, adr + num):
             t = P.segbody_t[j]
+            if rest_arc > EPS:
+                share = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, t, narc) / rest_arc
+                t = spline_param_at_arc(p0, v0, a0, p1, v1, a1, share * arc, narc)
             frame = transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, t, nsub)
             t_prev = t
             body = P.segbody_body[j]
@@ -910,6 +997,9 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         for j in range(adr, adr + num):
             body = P.segbody_body[j]
             t = P.segbody_t[j]
+            if rest_arc > EPS:
+                share = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, t, narc) / rest_arc
+                t = spline_param_at_arc(p0, v0, a0, p1, v1, a1, share * arc, narc)
             fr = qmul(q4(out_rot, body), qaxis_angle(axis_local, theta * t))
             rot = qnormalize(qmul(fr, q4(P.segbody_rot, j)))
             joint = vadd(v3(out_pos, body), qrot(fr, v3(P.segbody_off, j)))

@@ -325,8 +325,13 @@ def _build(c, goals: list[int], prm: IKParams):
     side_cons = []
     for side in sides:
         # A spine body whose parent is held at a goal is a particle too (when the brace is on):
-        # the brace below keeps it where that rigid parent can point at it.
+        # the brace below keeps it where that rigid parent can point at it. So is the root's
+        # spine child: a spline from the root starts with the root's frame as given (the
+        # game's), and a body inside it (a waist or belly between the root and the first
+        # branch) was put where that frame's tangent sends it, up to 0.46 of its bone off its
+        # parent's frame when the root leans away from the spine's bend.
         branches = [s for k, s in enumerate(side) if s in goal_set or nonspine_ik_child[s] or k == len(side) - 1
+                    or k == 0
                     or (prm.spine_brace and int(parent[s]) in goal_set and int(parent[s]) != 0)]
         cons = []
         prev_body, prev_p, prev_k = 0, 0, -1
