@@ -53,6 +53,7 @@ class Probe:
         self.planted = {}          # id(state) -> feature indices planted at the hit
         self.samples = {1: [], 2: []}
         self.saturated = {1: [], 2: []}
+        self.sim1_iterations = 1   # solver iterations per substep in Simulation 1 (an experiment)
 
     def __enter__(self):
         I.step = self
@@ -85,6 +86,8 @@ class Probe:
         which = 1 if (r is not None and state is r.sim1) else 2 if (r is not None and state is r.sim2) else 0
         if which == 0 or id(state) not in self.planted:
             return self.orig(model, state, dt, substeps=substeps, **kw)
+        if which == 1 and self.sim1_iterations != 1:
+            kw["iterations"] = self.sim1_iterations
         h = dt / substeps
         mu = model.settings.foot.mu
         for _ in range(substeps):
@@ -108,11 +111,12 @@ def _world_point(state, b, local):
     return state.body_pos[b] + local + w * t + np.cross(v, t)
 
 
-def run(name, sizes, ndir=8):
+def run(name, sizes, ndir=8, sim1_iterations=1):
     c = creature(name)
     m = I.chain_mass(c, 0)
     drift, along = [], []
     with Probe() as probe:
+        probe.sim1_iterations = sim1_iterations
         for size in sizes:
             for k in range(ndir):
                 a = 2 * np.pi * (k + 0.5) / ndir
@@ -155,9 +159,11 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--creatures", nargs="*", default=["humanoid", "random2"])
     ap.add_argument("--sizes", nargs="*", type=float, default=[0.3, 0.8])
+    ap.add_argument("--directions", type=int, default=8)
+    ap.add_argument("--sim1-iterations", type=int, default=1, help="solver iterations in Simulation 1 (experiment)")
     args = ap.parse_args()
     for name in args.creatures:
-        o = run(name, args.sizes)
+        o = run(name, args.sizes, args.directions, args.sim1_iterations)
         for which in (1, 2):
             s = o[f"sim{which}"]
             print(f"{name:10s} sim{which}: planted-foot slip median {s['median']:.4f} mean {s['mean']:.4f} "
