@@ -15,6 +15,7 @@ import glob
 import importlib.util
 import io
 import os
+import re
 import warnings
 from contextlib import redirect_stdout
 
@@ -408,8 +409,19 @@ def test_spike_beast_is_the_largest_file():
     assert c.nbody == 80 and ncap(c, "spike") >= 40
 
 
+_FLOAT = re.compile(r"-?\d+\.\d+(?:[eE][-+]?\d+)?")
+
+
+def _to_12_digits(text: str) -> str:
+    """The text with every decimal number written to 12 significant digits: numpy's
+    trigonometry may differ in the last bit between releases (numpy 2.4 changed a 17-digit
+    repr in hexapod.yaml at its 16th digit), which says nothing about the generator."""
+    return _FLOAT.sub(lambda m: format(float(m.group()), ".12g"), text)
+
+
 def test_generator_reproduces_the_files():
-    """creatures/_make.py regenerates every library file byte for byte, and no more."""
+    """creatures/_make.py regenerates every library file, character for character but for
+    the last digits of floats (to 12 significant digits), and no more."""
     spec = importlib.util.spec_from_file_location("_menagerie_make_library",
                                                   os.path.join(LIBRARY, "_make.py"))
     module = importlib.util.module_from_spec(spec)
@@ -418,4 +430,5 @@ def test_generator_reproduces_the_files():
     assert sorted(m.name for m in makers) == NAMES
     for m in makers:
         with open(os.path.join(LIBRARY, m.name + ".yaml"), encoding="utf-8") as f:
-            assert f.read() == m.text(), f"creatures/{m.name}.yaml differs from _make.py's output"
+            assert _to_12_digits(f.read()) == _to_12_digits(m.text()), (
+                f"creatures/{m.name}.yaml differs from _make.py's output")
