@@ -74,7 +74,7 @@ INT_FIELDS = (
     "goal_lproot",         # (ngoal,) limb root particle of a limb goal (its reach is measured from there), -1
     "goal_limb_root",      # (ngoal,) limb root of a limb goal, 0 for a delegated one, -2 for a spine
                            # body's goal held at its origin (self-delegated), else -1
-    "scratch_layout",      # (12,) first row of each scratch block (see ``_scratch_views``)
+    "scratch_layout",      # (13,) first row of each scratch block (see ``_scratch_views``)
     "cl_i",                # self-collision proxies and pairs (engine/ik/_collide.py)
 )
 FLOAT_FIELDS = (
@@ -105,6 +105,8 @@ FLOAT_FIELDS = (
     ("goal_reachj", 1),    # (ngoal,) reach of the goal body's joint particle (when tipped), m
     ("params", 1),         # see P_* below
     ("cl_f", 1),           # self-collision proxies and pairs (engine/ik/_collide.py)
+    ("seg_rest_arc", 1),   # (nseg,) arc length of each rest spline on the reconstruction's chords, m
+    ("segbody_share", 1),  # (nsegbody,) each interior body's share of its rest spline's arc
 )
 FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
 NINT = len(INT_FIELDS)
@@ -119,8 +121,8 @@ P_GOAL_AIM, P_ROOT_PIN = 14, 15
 NPARAM = 16
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
-# state, dg_target, sp_acc, lg_target, lg_jtarget.
-NSCRATCH = 12
+# state, dg_target, sp_acc, lg_target, lg_jtarget, segbody_tp.
+NSCRATCH = 13
 
 EPS = 1e-12
 
@@ -538,7 +540,8 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf, 25), _f(pi, pf3, 26), _f(pi, pf4, 27), _f(pi, pf3, 28), _f(pi, pf4, 29),
         _f(pi, pf3, 30), _f(pi, pf3, 31), _f(pi, pf4, 32), _f(pi, pf, 33), _f(pi, pf, 34),
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
-        _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42), _f(pi, pf, 43),
+        _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42), _f(pi, pf, 43), _f(pi, pf, 44),
+        _f(pi, pf, 45),
     )
 
 
@@ -564,8 +567,9 @@ def _scratch_views(P, scratch):
     sp_acc = scratch[lay[9]:lay[9] + nsp]
     lg_target = scratch[lay[10]:lay[10] + ngoal]
     lg_jtarget = scratch[lay[11]:lay[11] + ngoal]
+    segbody_tp = scratch[lay[12]:lay[12] + P.segbody_body.shape[0], 0]
     return (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc,
-            lg_target, lg_jtarget)
+            lg_target, lg_jtarget, segbody_tp)
 
 
 # -- the solve ------------------------------------------------------------------------
@@ -847,8 +851,32 @@ ARC_CHORDS = 16
 ARC_BISECT = 10
 
 
+@njit(cache=True, _nrt=False)
+def rest_arc_shares(sp_rest, b_rootrel_rot, sp_body, seg_a, seg_b, seg_v0, seg_a0, seg_v1, seg_a1,
+                    seg_body_adr, seg_body_num, segbody_t, nsub, seg_rest_arc, segbody_share):
+    """Static part of the reconstruction (at plan build): each rest spline's arc length and
+    each interior body's share of it, on the chords ``_spine_reconstruct`` measures the
+    posed splines on (``ARC_CHORDS`` per transport substep), from the plan's own fitted
+    splines, as the solve would compute them."""
+    narc = ARC_CHORDS * max(nsub, 1)
+    for g in range(seg_a.shape[0]):
+        qa = q4(b_rootrel_rot, sp_body[seg_a[g]])
+        qb = q4(b_rootrel_rot, sp_body[seg_b[g]])
+        rp0 = v3(sp_rest, seg_a[g])
+        rp1 = v3(sp_rest, seg_b[g])
+        rv0 = qrot(qa, v3(seg_v0, g))
+        ra0 = qrot(qa, v3(seg_a0, g))
+        rv1 = qrot(qb, v3(seg_v1, g))
+        ra1 = qrot(qb, v3(seg_a1, g))
+        rest_arc = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, 1.0, narc)
+        seg_rest_arc[g] = rest_arc
+        for j in range(seg_body_adr[g], seg_body_adr[g] + seg_body_num[g]):
+            segbody_share[j] = (spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, segbody_t[j], narc) / rest_arc
+                                if rest_arc > EPS else 0.0)
+
+
 @njit(cache=True, _nrt=False, inline="always")
-def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
+def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan, segbody_tp,
                        out_pos, out_rot, buckle):
     """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
     allowed shrink/stretch, tangents by the three-point and natural-end formulas, minimal
@@ -939,16 +967,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         num = P.seg_body_num[g]
         if num == 0:
             continue
-        # The rest spline (root-relative), as the plan fitted it.
-        qa = q4(P.b_rootrel_rot, A)
-        qb = q4(P.b_rootrel_rot, B)
-        rp0 = v3(P.sp_rest, a)
-        rp1 = v3(P.sp_rest, b)
-        rv0 = qrot(qa, v3(P.seg_v0, g))
-        ra0 = qrot(qa, v3(P.seg_a0, g))
-        rv1 = qrot(qb, v3(P.seg_v1, g))
-        ra1 = qrot(qb, v3(P.seg_a1, g))
-        rest_arc = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, 1.0, narc)
+        rest_arc = P.seg_rest_arc[g]
         arc = spline_arc(p0, v0, a0, p1, v1, a1, 1.0, narc)
         phi = 1.0
         for k in range(P.ch_particle.shape[0]):
@@ -977,8 +996,8 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         for j in range(adr, adr + num):
             t = P.segbody_t[j]
             if rest_arc > EPS:
-                share = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, t, narc) / rest_arc
-                t = spline_param_at_arc(p0, v0, a0, p1, v1, a1, share * arc, narc)
+                t = spline_param_at_arc(p0, v0, a0, p1, v1, a1, P.segbody_share[j] * arc, narc)
+            segbody_tp[j] = t
             frame = transport_frame(p0, v0, a0, p1, v1, a1, frame, t_prev, t, nsub)
             t_prev = t
             body = P.segbody_body[j]
@@ -996,10 +1015,7 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             theta = twist_angle(delta, axis_local)
         for j in range(adr, adr + num):
             body = P.segbody_body[j]
-            t = P.segbody_t[j]
-            if rest_arc > EPS:
-                share = spline_arc(rp0, rv0, ra0, rp1, rv1, ra1, t, narc) / rest_arc
-                t = spline_param_at_arc(p0, v0, a0, p1, v1, a1, share * arc, narc)
+            t = segbody_tp[j]
             fr = qmul(q4(out_rot, body), qaxis_angle(axis_local, theta * t))
             rot = qnormalize(qmul(fr, q4(P.segbody_rot, j)))
             joint = vadd(v3(out_pos, body), qrot(fr, v3(P.segbody_off, j)))
@@ -1485,7 +1501,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
     """One whole solve: goals to joint targets, spine phase, root influence, spine
     reconstruction, rigid delegated bodies, limb phase. Writes the IK sub-tree only."""
     (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc, lg_target,
-     lg_jtarget) = _scratch_views(P, scratch)
+     lg_jtarget, segbody_tp) = _scratch_views(P, scratch)
     rr = qnormalize(root_rot)
     _goal_targets(P, root_pos, rr, goal_pos, goal_rot, goal_pos_w, goal_rot_w, goal_joint)
     _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target)
@@ -1494,7 +1510,7 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
         _spine_phase(P, root_pos, root_rot_in, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
                      state, sp_acc)
         rr = _root_influence(P, root_pos, root_rot_in, sp_pos)
-        _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan,
+        _spine_reconstruct(P, root_pos, rr, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan, segbody_tp,
                            out_pos, out_rot, state[0])
         _place_rigid(P, out_pos, out_rot)
         # A spine or delegated goal without a full rotation goal was converted to its joint

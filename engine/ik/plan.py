@@ -719,7 +719,7 @@ def _build(c, goals: list[int], prm: IKParams):
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
     f64 = lambda x, w: np.asarray(x, np.float64).reshape(-1, w) if w > 1 else np.asarray(x, np.float64).reshape(-1)  # noqa: E731
     nsp, nlp, ngoal, nch = len(sp_kind), len(lp), len(goals), len(ch)
-    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg), nsp, ngoal, ngoal]  # rows of 3
+    sizes = [nsp, nsp, nlp, nlp, nlp, ngoal, nch, 1, len(dg), nsp, ngoal, ngoal, len(segbody_body)]  # rows of 3
     layout = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int32)
     fields = dict(
         b_parent=i32(parent),
@@ -770,6 +770,14 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
     )
+    # the rest splines' arc lengths and the interior bodies' shares of them: static, so
+    # measured here once by the solve's own kernel rather than in every reconstruction
+    fields["seg_rest_arc"] = np.zeros(len(seg_v0))
+    fields["segbody_share"] = np.zeros(len(segbody_body))
+    K.rest_arc_shares(fields["sp_rest"], fields["b_rootrel_rot"], fields["sp_body"], fields["seg_a"],
+                      fields["seg_b"], fields["seg_v0"], fields["seg_a0"], fields["seg_v1"], fields["seg_a1"],
+                      fields["seg_body_adr"], fields["seg_body_num"], fields["segbody_t"],
+                      int(fields["params"][K.P_SUBSTEPS]), fields["seg_rest_arc"], fields["segbody_share"])
     fields["cl_i"], fields["cl_f"], cl_rows, cl_pairs = selfcollision.build(
         c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
         prm.self_collision_rounds, int(sum(sizes)), goals, goal_lp)
