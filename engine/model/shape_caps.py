@@ -32,7 +32,14 @@ creature standing on z = 0:
    middle of the back (not the spine's rear end) rising more than it goes back: a dorsal
    fin or crest (detail); one off the head is
    the mouth (its first body; the rest are detail), or a trunk (an arm) with
-   ``TRUNK_MIN_BODIES`` or more; any other is detail.
+   ``TRUNK_MIN_BODIES`` or more; any other is detail. A sagittal chain that runs back
+   along the body and then comes down to the ground under it is spine, then a **leg** (a
+   tripod's hind leg at the rear of a long back): the leg is the part whose bones fall
+   steeper than 45 degrees (the split that best parts them from the bones lying along the
+   body), its first joint at least ``SAGITTAL_LEG_ROOT_FRACTION`` of the root's height up
+   and its foot under it (``SAGITTAL_LEG_LEAN``); the spine runs on to where it leaves. A
+   tail trailing down to the ground behind (a kangaroo's) leans too far to be one; a tail
+   hanging straight down is a leg by its shape and stays a tail only by its name.
 4. **Side chains** (a sided child of a sagittal body and everything below it). The
    *main path* follows, at each body, the child whose subtree reaches furthest. A chain off
    the head reaching less than ``EAR_MAX_FRACTION`` x size is an ear (or eye, if its name
@@ -91,6 +98,15 @@ MIRROR_FRACTION = 0.06
 HEAD_TRIM_RATIO = 0.3
 #: A sagittal branch going backward needs this many bodies to be a tail.
 TAIL_MIN_BODIES = 2
+#: A sagittal chain that runs back along the body and then comes down to the ground is spine
+#: then a leg (a tripod's hind leg at the rear end of a long back): the leg is the part whose
+#: bones fall steeper than 45 degrees, and its first joint lies at least this fraction of the
+#: root's height above the ground (a tail curling down to the ground meets it low).
+SAGITTAL_LEG_ROOT_FRACTION = 0.5
+#: ... and its foot lies under that first joint: no farther from it along the ground than
+#: this fraction of the drop (the library's tripod: 0.40, random rear legs 0.05-0.42; tails
+#: trailing down to the ground 0.6-1.1, an inchworm's arch 1.0).
+SAGITTAL_LEG_LEAN = 0.5
 #: A small body is off the plane when |y| exceeds this fraction of its bone (its distance
 #: from its parent's joint) and it pairs with a mirror partner ...
 LOCAL_SIDE_FRACTION = 0.15
@@ -382,11 +398,51 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         """A side chain that is a leg or an arm, not a spike or a fin stub."""
         return is_leg(c) or len(main_path(c)) >= ARM_MIN_BODIES
 
+    steep = float(np.sqrt(0.5))  # sine of 45 degrees
+
+    def leg_split(c):
+        """Where the main path from ``c`` turns down into a leg: the index of the leg's
+        first body (0: the chain from ``c`` is the leg), or -1 when it is no leg. The split
+        is the one that best parts bones lying along the body (falling less than 45
+        degrees) from bones coming down (steeper), by bone length; the foot's own bone is
+        not counted (a foot lies along the ground)."""
+        mp = [c]  # the main path, on the plane (a side leg off it is no part of this chain)
+        while True:
+            kids = [d for d in children[mp[-1]] if sag[d]]
+            if not kids:
+                break
+            k = mp[-1]
+            mp.append(max(kids, key=lambda d: reach[d] + float(np.linalg.norm(joint_pos[d] - joint_pos[k]))))
+        start = joint_pos[c, 2] - ground
+        if start <= 0 or len(mp) < 2:
+            return -1
+        fi = next((i for i, b in enumerate(mp) if joint_pos[b, 2] - ground < FOOT_FRACTION * start), len(mp) - 1)
+        if fi < 1:
+            return -1
+        bones = np.diff(joint_pos[mp[:fi + 1]], axis=0)
+        length = np.linalg.norm(bones, axis=1)
+        fall = -bones[:, 2] / np.maximum(length, 1e-12)
+        along = length * np.maximum(0.0, fall - steep)   # cost of a steep bone left in the spine part
+        down = length * np.maximum(0.0, steep - fall)    # cost of a shallow bone put in the leg
+        cost = [float(along[:k].sum() + down[k:].sum()) for k in range(fi)]
+        k = int(np.argmin(cost))
+        r = mp[k]
+        d = joint_pos[mp[fi]] - joint_pos[r]
+        if (joint_pos[r, 2] - ground < SAGITTAL_LEG_ROOT_FRACTION * (joint_pos[0, 2] - ground)
+                or float(np.hypot(d[0], d[1])) > SAGITTAL_LEG_LEAN * -d[2] or fall[k:].min() <= 0.0
+                or not is_leg(r) or any("tail" in (named[b] or []) for b in mp[k:])):
+            return -1  # a tail hanging to the ground (by its shape, or by its name)
+        return k
+
+    def sagittal_leg(c):
+        """``c`` (sagittal, off a sagittal body) is the first body of a leg on the plane."""
+        return sag[c] and parent[c] >= 0 and sag[parent[c]] and leg_split(c) == 0
+
     # When the head is the file's root (a crab's carapace), the bodies below it are the
     # rest of the creature, not parts of the head.
     below_head = (set(_subtree(children, head)) if head != 0 else {head}) | set(trimmed)
     attach = [j for j in range(n) if sag[j] and j not in below_head
-              and any(not sag[c] and limb_like(c) for c in children[j])]
+              and any((not sag[c] and limb_like(c)) or sagittal_leg(c) for c in children[j])]
     if attach:
         far = max(attach, key=lambda a: (len(_tree_path(parent, head, a)), -a))
         path = _tree_path(parent, far, head)
@@ -556,7 +612,8 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
             lone = sag[c] and len(mp) >= ARM_MIN_BODIES and (np.all(dy[bodies] > side_tol)
                                                            or np.all(dy[bodies] < -side_tol))
             if sag[c] and not lone and not (s != head and leg and downward
-                                            and not (back and len(mp) >= TAIL_MIN_BODIES)):
+                                            and not (back and len(mp) >= TAIL_MIN_BODIES)) \
+                    and not (s != head and sagittal_leg(c)):
                 if s == head and len(mp) >= TRUNK_MIN_BODIES and reach[c] >= ear_reach:
                     mark(mp[:-1], ["limb"], f"trunk: a sagittal chain of {len(mp)} bodies off the head {names[head]}")
                     mark([mp[-1]], ["limb", "grasper"], "grasper: the trunk's last body")
