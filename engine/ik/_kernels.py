@@ -107,6 +107,8 @@ FLOAT_FIELDS = (
     ("cl_f", 1),           # self-collision proxies and pairs (engine/ik/_collide.py)
     ("seg_rest_arc", 1),   # (nseg,) arc length of each rest spline on the reconstruction's chords, m
     ("segbody_share", 1),  # (nsegbody,) each interior body's share of its rest spline's arc
+    ("ag_via", 3),         # (ngroup, 3) direction the aim turns a limb through, in its spine body's
+                           # frame (zero: the shortest arc; see ``_limb_phase``)
 )
 FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
 NINT = len(INT_FIELDS)
@@ -541,7 +543,7 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf3, 30), _f(pi, pf3, 31), _f(pi, pf4, 32), _f(pi, pf, 33), _f(pi, pf, 34),
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
         _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42), _f(pi, pf, 43), _f(pi, pf, 44),
-        _f(pi, pf, 45),
+        _f(pi, pf, 45), _f(pi, pf3, 46),
     )
 
 
@@ -1148,7 +1150,18 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
         ng = vnorm(vg)
         if nr < 1e-9 or ng < 1e-9:
             continue
-        rot = qbetween(vr, vg)
+        # The shortest arc from vr to vg turns about an axis that is arbitrary where the
+        # goal lies opposite the limb's rest direction (a hanging arm's hand raised to the
+        # mouth or over the head): there the limb turned over between two frames. A limb
+        # root's aim goes through ``ag_via`` instead (forward, across the limb: the arm
+        # raised in front), which moves that one ill-defined direction to the opposite
+        # of ``ag_via`` (straight behind), where goals rarely go.
+        via = v3(P.ag_via, g)
+        if vdot(via, via) > 0.5:
+            w = qrot(q4(out_rot, P.lp_attach[P.ag_pivot[g]]), via)
+            rot = qnormalize(qmul(qbetween(w, vg), qbetween(vr, w)))
+        else:
+            rot = qbetween(vr, vg)
         scale = ng / nr
         ghat = vscale(vg, 1.0 / ng)
         # Squashing along v_g (goal closer than at rest) would flatten the chain onto the
@@ -1647,7 +1660,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 46
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 47
 
 
 _check_layout()

@@ -66,6 +66,8 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
+    aim_via: bool = True          # a limb's aim turns it through forward (no flip for goals opposite its
+                                  # rest direction; the one ill-defined aim is straight behind): ``_aim_via``
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
 
     def vector(self) -> np.ndarray:
@@ -118,6 +120,45 @@ class IKParams:
 
 
 DEFAULT_PARAMS = IKParams()
+
+
+def _aim_via(lp, ag_pivot, ag_goal, goal_lp, goal_lpj, rr_rot) -> np.ndarray:
+    """(ngroup, 3) the direction each limb root's aim turns its limb through, in the frame
+    of the spine body it hangs from (zero for the groups inside a limb: a fork's branches
+    keep the shortest arc).
+
+    The aim (``_limb_phase``) turns a limb so its goal particles point at their goals.
+    The shortest arc from the rest direction u to the goal direction v is ill-defined
+    where v = -u, and that is where a hanging arm's hand goes to the mouth or over the
+    head: the arm turned over between two frames (the humanoid's ``wave``: 2.9 rad). No
+    choice is smooth for every v (a rotation taking u to each v, continuous in v, does
+    not exist on the whole sphere), so the ill-defined direction is put where goals
+    rarely go: the aim is the arc from u to w, then from w to v, with w the creature's
+    forward across the limb (its component perpendicular to u; up, across it, for a
+    limb that points forward or back at rest: a tail, a snout). It is ill-defined only
+    at v = -w: straight behind a hanging limb. For v in the plane of u and w (reaching
+    forward, raising the arm in front) it is the shortest arc; elsewhere it differs by a
+    twist about v that grows from zero near the rest direction (a foot goal a little to
+    the side twists the leg by about as much as it leans)."""
+    out = np.zeros((len(ag_pivot), 3))
+    for g, (pivot, gl) in enumerate(zip(ag_pivot, ag_goal)):
+        if lp[pivot]["parent"] >= 0:
+            continue
+        ends = [lp[goal_lpj[k] if goal_lpj[k] >= 0 else goal_lp[k]]["init"] for k in gl if goal_lp[k] >= 0]
+        if not ends:
+            continue
+        u = np.mean(ends, axis=0) - lp[pivot]["init"]
+        if np.linalg.norm(u) < 1e-9:
+            continue
+        u = u / np.linalg.norm(u)
+        qs_inv = _qconj(rr_rot[lp[pivot]["attach"]])
+        for axis in ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)):
+            a = _qrot(qs_inv, np.array(axis))
+            w = a - (a @ u) * u
+            if np.linalg.norm(w) >= 0.5:  # u within 60 degrees of perpendicular to it
+                out[g] = w / np.linalg.norm(w)
+                break
+    return out
 
 
 def _param_vector(prm: IKParams, splayed_forks: int):
@@ -714,6 +755,7 @@ def _build(c, goals: list[int], prm: IKParams):
                 goal_reach[k] = chain_len + float(np.linalg.norm(lp[t]["local"] - lp[lp_of[g]]["local"]))
     goal_lp = np.array([tip_of.get(g, lp_of.get(g, -1)) for g in goals], np.int32)
     goal_lpj = np.array([lp_of[g] if g in tip_of else -1 for g in goals], np.int32)
+    ag_via = _aim_via(lp, ag_pivot, ag_goal, goal_lp, goal_lpj, rr_rot) if prm.aim_via else np.zeros((len(ag_pivot), 3))
     rg_body = sorted(delegated)
 
     i32 = lambda x: np.asarray(x, np.int32).reshape(-1)  # noqa: E731
@@ -769,6 +811,7 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_phi=f64([x.get("phi", prm.limb_stretch) for x in lc], 1),
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
+        ag_via=f64(ag_via, 3),
     )
     # the rest splines' arc lengths and the interior bodies' shares of them: static, so
     # measured here once by the solve's own kernel rather than in every reconstruction
