@@ -66,8 +66,9 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
-    aim_via: bool = True          # a limb's aim turns it through forward (no flip for goals opposite its
-                                  # rest direction; the one ill-defined aim is straight behind): ``_aim_via``
+    aim_via: bool = False         # a limb's aim turns it through forward (no flip for goals opposite its
+                                  # rest direction; the one ill-defined aim is straight behind): ``_aim_via``.
+                                  # Off until the whole suite has run with it on (issue 16)
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
 
     def vector(self) -> np.ndarray:
