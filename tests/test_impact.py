@@ -77,10 +77,7 @@ def _lowest_rest(ch):
     return -0.01 - float(np.max(ch.creature.body_extent))
 
 
-@pytest.mark.parametrize("kind", ["humanoid", "dog", "random1", "capture", pytest.param(
-    "random3", marks=pytest.mark.xfail(strict=True, reason="turns a body 1.58 rad in one frame during the response "
-                                       "(bound 0.5; back on animation in 0.7 s) since the arc-length spine (spine5) "
-                                       "changed the poses its motion library is built from; cause not found")), pytest.param(
+@pytest.mark.parametrize("kind", ["humanoid", "dog", "random1", "capture", "random3", pytest.param(
     "random4", marks=pytest.mark.xfail(strict=True, reason="re-enters 'roar' (the search's best match) and ends "
                                        "0.25 m (3% of its 7.7 m height) against the push, cos -0.94; it passed on "
                                        "the impact branch alone and fails since the spine and standing-stage "
