@@ -87,7 +87,7 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
                 stage, n):
     P = K.unpack(pi, pf, pf3, pf4)
     (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc, lg_target,
-     lg_jtarget) = K._scratch_views(P, scratch)
+     lg_jtarget, segbody_tp) = K._scratch_views(P, scratch)
     rp = (root_pos[0], root_pos[1], root_pos[2])
     rr = (root_rot[0], root_rot[1], root_rot[2], root_rot[3])
     acc = 0
@@ -103,7 +103,8 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
         elif stage == 3:
             K._spine_phase(P, rp, rr, gpw, grw, goal_joint, dg_target, sp_pos, sp_inv, state, sp_acc)
         elif stage == 4:
-            K._spine_reconstruct(P, rp, rr, gpw, goal_rot, grw, sp_pos, ch_tan, out_pos, out_rot, state[0])
+            K._spine_reconstruct(P, rp, rr, gpw, goal_rot, grw, sp_pos, ch_tan, segbody_tp, out_pos, out_rot,
+                                  state[0])
             K._place_rigid(P, out_pos, out_rot)
         elif stage == 5:
             K._limb_phase(P, goal_pos, gpw, goal_rot, grw, goal_joint, lp_pos, lp_rest, lp_inv, out_pos, out_rot,
