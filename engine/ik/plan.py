@@ -142,7 +142,7 @@ def _aim_via(lp, ag_pivot, ag_goal, goal_lp, goal_lpj, rr_rot) -> np.ndarray:
     twist about v that grows from zero near the rest direction (a foot goal a little to
     the side twists the leg by about as much as it leans)."""
     out = np.zeros((len(ag_pivot), 3))
-    for g, (pivot, gl) in enumerate(zip(ag_pivot, ag_goal)):
+    for g, (pivot, gl) in enumerate(zip(ag_pivot, ag_goal, strict=True)):
         if lp[pivot]["parent"] >= 0:
             continue
         ends = [lp[goal_lpj[k] if goal_lpj[k] >= 0 else goal_lp[k]]["init"] for k in gl if goal_lp[k] >= 0]

@@ -360,13 +360,16 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         reach[k] = max([float(np.linalg.norm(tip[k] - joint_pos[k]))]
                        + [reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k])) for c in children[k]])
 
-    def main_path(j):
+    def main_path(j, on_plane=False):
+        """From ``j`` on, the child reaching furthest at each body (only sagittal children
+        with ``on_plane``: a side leg off a sagittal chain is no part of it)."""
         out = [j]
-        while children[out[-1]]:
+        while True:
             k = out[-1]
-            out.append(max(children[k],
-                           key=lambda c: reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k]))))
-        return out
+            kids = [c for c in children[k] if sag[c]] if on_plane else children[k]
+            if not kids:
+                return out
+            out.append(max(kids, key=lambda c: reach[c] + float(np.linalg.norm(joint_pos[c] - joint_pos[k]))))
 
     ground_h = GROUND_FRACTION * height
 
@@ -406,13 +409,7 @@ def find_caps(names, parent, joint_pos, centre, rot, half, caps_table=None, mode
         is the one that best parts bones lying along the body (falling less than 45
         degrees) from bones coming down (steeper), by bone length; the foot's own bone is
         not counted (a foot lies along the ground)."""
-        mp = [c]  # the main path, on the plane (a side leg off it is no part of this chain)
-        while True:
-            kids = [d for d in children[mp[-1]] if sag[d]]
-            if not kids:
-                break
-            k = mp[-1]
-            mp.append(max(kids, key=lambda d: reach[d] + float(np.linalg.norm(joint_pos[d] - joint_pos[k]))))
+        mp = main_path(c, on_plane=True)
         start = joint_pos[c, 2] - ground
         if start <= 0 or len(mp) < 2:
             return -1
