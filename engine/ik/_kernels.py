@@ -728,17 +728,54 @@ def _ground_spine(ch_particle, ch_prev, sp_body, sp_rest, b_rootrel_rot, b_joint
         swing = qbetween(qrot(root_rot, vsub(v3(sp_rest, i), v3(sp_rest, j))), vsub(x, v3(sp_pos, j)))
         rot = qmul(swing, qmul(root_rot, q4(b_rootrel_rot, s)))
         low, _far = _box_lows(rot, v3(b_joint_offset, s), v3(b_extent, s), gn, (0.0, 0.0, 0.0))
-        lift = floor - (vdot(gn, x) + low)
+        # scaled by the inverse mass: a particle pinned by a goal of weight w (1 - w) moves
+        # as much less, so the lift fades in and out with the goal
+        lift = (floor - (vdot(gn, x) + low)) * min(sp_inv[i], 1.0)
         if lift > 0.0:
             set3(sp_pos, i, vadd(x, vscale(gn, lift)))
 
 
 @njit(cache=True, _nrt=False, inline="always")
+def _ground_share(i, lp_parent, lp_inv, goal_body, goal_lp, goal_lpj, goal_pos_w, goal_rot_w):
+    """How much of a lift particle ``i`` takes, and the goal slot (and 0 target, 1 joint
+    target) whose pin moves with it: a free particle all of it, a limb root none, a particle
+    pinned by a goal of weight w (``_pin_limb_goals``) 1 - w, so a goal at full weight is
+    met where it is (on or below the floor) and a fading goal hands its particle to the
+    ground without a step."""
+    if lp_parent[i] < 0:
+        return 0.0, -1, 0
+    if lp_inv[i] > 0.0:
+        return min(lp_inv[i], 1.0), -1, 0
+    for gi in range(goal_body.shape[0]):
+        b = goal_body[gi]
+        w = min(max(goal_pos_w[b], 0.0), 1.0)
+        if goal_lp[gi] == i:
+            return 1.0 - w, gi, 0
+        if goal_lpj[gi] == i:
+            return 1.0 - min(w, min(max(goal_rot_w[b], 0.0), 1.0)), gi, 1
+    return 0.0, -1, 0
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _ground_lift(i, lift, share, gi, which, gn, lp_pos, lg_target, lg_jtarget):
+    """Move particle ``i`` up by ``share`` x ``lift`` (and the pin that holds it, if any)."""
+    d = vscale(gn, lift * share)
+    set3(lp_pos, i, vadd(v3(lp_pos, i), d))
+    if gi >= 0:
+        if which == 0:
+            set3(lg_target, gi, vadd(v3(lg_target, gi), d))
+        else:
+            set3(lg_jtarget, gi, vadd(v3(lg_jtarget, gi), d))
+
+
+@njit(cache=True, _nrt=False, inline="always")
 def _ground_limbs(lp_body, lp_parent, lp_mode, lp_c1, lp_attach, lp_rot_local, b_joint_offset, b_extent, b_floor,
-                  b_ground_r, gn, gd, out_rot, lp_rest, lp_pos, lp_inv):
+                  b_ground_r, gn, gd, out_rot, lp_rest, lp_pos, lp_inv, goal_body, goal_lp, goal_lpj, goal_pos_w,
+                  goal_rot_w, lg_target, lg_jtarget):
     """Limb particles lifted so every limb body's box stays above the ground (see above):
     the joint particle lifts the corners on its side, the first child particle (or the
-    tip) those on the far side; a body without one turns with its parent's bone."""
+    tip) those on the far side; a body without one turns with its parent's bone. Each
+    particle takes its ``_ground_share`` of a lift."""
     for i in range(lp_body.shape[0]):
         if lp_mode[i] == 3:
             continue                          # a tip: its body is carried by its joint particle
@@ -762,16 +799,20 @@ def _ground_limbs(lp_body, lp_parent, lp_mode, lp_c1, lp_attach, lp_rot_local, b
         rot = qmul(swing, rest_rot)
         near, far = _box_lows(rot, v3(b_joint_offset, b), v3(b_extent, b), gn, bone)
         h = vdot(gn, x)
-        if lp_inv[i] > 0.0:
-            lift = floor - (h + near)
-            if lift > 0.0:
-                x = vadd(x, vscale(gn, lift))
-                set3(lp_pos, i, x)
-                h += lift
-        if c >= 0 and far < 1e299 and lp_inv[c] > 0.0:
+        lift = floor - (h + near)
+        if lift > 0.0:
+            share, gi, which = _ground_share(i, lp_parent, lp_inv, goal_body, goal_lp, goal_lpj, goal_pos_w,
+                                             goal_rot_w)
+            if share > 0.0:
+                _ground_lift(i, lift, share, gi, which, gn, lp_pos, lg_target, lg_jtarget)
+                h += lift * share
+        if c >= 0 and far < 1e299:
             lift = floor - (h + far)
             if lift > 0.0:
-                set3(lp_pos, c, vadd(v3(lp_pos, c), vscale(gn, lift)))
+                share, gi, which = _ground_share(c, lp_parent, lp_inv, goal_body, goal_lp, goal_lpj, goal_pos_w,
+                                                 goal_rot_w)
+                if share > 0.0:
+                    _ground_lift(c, lift, share, gi, which, gn, lp_pos, lg_target, lg_jtarget)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -1352,9 +1393,6 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
     _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest)
     if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
         _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
-    if ground_on:  # the stretch, seating and collision moves end above the ground too
-        _ground_limbs(P.lp_body, P.lp_parent, P.lp_mode, P.lp_c1, P.lp_attach, P.lp_rot_local, P.b_joint_offset,
-                      P.b_extent, P.b_floor, P.b_ground_r, gn, gd, out_rot, lp_rest, lp_pos, lp_inv)
     _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
@@ -1542,6 +1580,11 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
             _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget,
                             lp_pos, lp_inv, True)
         for _inner in range(n_inner):
+            if ground_on:
+                # lifted first, so the sweep that follows puts the lengths right again
+                _ground_limbs(P.lp_body, lp_parent, P.lp_mode, P.lp_c1, P.lp_attach, P.lp_rot_local,
+                              P.b_joint_offset, P.b_extent, P.b_floor, P.b_ground_r, gn, gd, out_rot, lp_rest, lp_pos,
+                              lp_inv, goal_body, goal_lp, goal_lpj, goal_pos_w, goal_rot_w, lg_target, lg_jtarget)
             for c in range(nlc):
                 stiff = 1.0
                 gi = P.lc_goal[c]
@@ -1555,9 +1598,6 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                                  P.lc_hi[c], P.lc_inva[c], P.lc_invb[c], stiff, slope, band, width)
             _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget,
                             lp_pos, lp_inv, False)
-            if ground_on:
-                _ground_limbs(P.lp_body, lp_parent, P.lp_mode, P.lp_c1, P.lp_attach, P.lp_rot_local, P.b_joint_offset,
-                              P.b_extent, P.b_floor, P.b_ground_r, gn, gd, out_rot, lp_rest, lp_pos, lp_inv)
 
 
 @njit(cache=True, _nrt=False, inline="always")
