@@ -16,6 +16,9 @@ Prints a table and ends with one JSON line. Figures (all measured in this run):
   ``calculateInverseKinematics`` (C++, damped least squares) on the 6 revolute joints at
   its default 20 iterations, ``pybullet_100_*`` at 100, ``pybullet_ball_*`` on the 18;
   time and worst tip error side by side (``--ikpy 0`` skips the chain);
+- ``ground_us``: what the ground constraint (``IKParams.ground``, on by default) adds to one
+  solve: median of the same solves (root at rest, plane z = 0) with it on minus off,
+  interleaved goal set by goal set (``solve_us_median_ground_on`` / ``_off``);
 - ``self_collision_us``: what the limb phase's self-collision (``IKParams.self_collision``,
   off by default until the IK tests pass with it) adds to one solve: median of the same solves with it on minus off,
   interleaved goal set by goal set; ``reach_error_rel_max_no_self_collision``: the
@@ -44,6 +47,7 @@ from numba import njit  # noqa: E402
 import engine  # noqa: E402
 from engine.ik import IKGoals, IKParams, IKSolver, plan_for, solve_ik, solve_ik_batch  # noqa: E402
 from engine.ik import _kernels as K  # noqa: E402
+from engine.ik.solver import GROUND_Z0  # noqa: E402
 from engine.ik.testing import arm_chain_creature, joint_world, random_reachable_pose  # noqa: E402
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -87,7 +91,7 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
                 stage, n):
     P = K.unpack(pi, pf, pf3, pf4)
     (sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan, state, dg_target, sp_acc, lg_target,
-     lg_jtarget, segbody_tp) = K._scratch_views(P, scratch)
+     lg_jtarget, segbody_tp, segbody_lift) = K._scratch_views(P, scratch)
     rp = (root_pos[0], root_pos[1], root_pos[2])
     rr = (root_rot[0], root_rot[1], root_rot[2], root_rot[3])
     acc = 0
@@ -101,14 +105,15 @@ def _stage_loop(pi, pf, pf3, pf4, root_pos, root_rot, goal_pos, goal_rot, gpw, g
             K._goal_targets(P, rp, rr, goal_pos, goal_rot, gpw, grw, goal_joint)
             K._delegated_targets(P, goal_rot, grw, goal_joint, dg_target)
         elif stage == 3:
-            K._spine_phase(P, rp, rr, gpw, grw, goal_joint, dg_target, sp_pos, sp_inv, state, sp_acc)
+            K._spine_phase(P, rp, rr, gpw, grw, goal_joint, dg_target, sp_pos, sp_inv, state, sp_acc, True,
+                           (0.0, 0.0, 1.0), 0.0)
         elif stage == 4:
             K._spine_reconstruct(P, rp, rr, gpw, goal_rot, grw, sp_pos, ch_tan, segbody_tp, out_pos, out_rot,
-                                  state[0])
+                                  state[0], True, (0.0, 0.0, 1.0), 0.0, segbody_lift)
             K._place_rigid(P, out_pos, out_rot)
         elif stage == 5:
             K._limb_phase(P, goal_pos, gpw, goal_rot, grw, goal_joint, lp_pos, lp_rest, lp_inv, out_pos, out_rot,
-                          lg_target, lg_jtarget, scratch)
+                          lg_target, lg_jtarget, scratch, True, (0.0, 0.0, 1.0), 0.0)
     return acc
 
 
@@ -120,13 +125,13 @@ def stage_profile(solver, root_pos, root_rot):
     args = (*solver.plan.blobs, root_pos, root_rot, g.goal_pos, g.goal_rot, g.goal_pos_weight, g.goal_rot_weight,
             solver.out_pos, solver.out_rot, solver.scratch)
     # Run the whole solve first so every stage sees the state it sees in a real solve.
-    K.solve_packed(*args)
+    K.solve_packed(*args, GROUND_Z0)
     out = {}
     for k, name in enumerate(STAGES):
         _stage_loop(*args, k, 5)
         best = []
         for _ in range(7):
-            K.solve_packed(*args)
+            K.solve_packed(*args, GROUND_Z0)
             t = time.perf_counter()
             _stage_loop(*args, k, 500)
             best.append((time.perf_counter() - t) / 500 * 1e6)
@@ -370,6 +375,21 @@ def main(argv=None):
                                                      solver_off.out_pos, solver_off.out_rot, solver_off.scratch),
                                     1, 5))
     self_collision_us = float(np.median(on_t) - np.median(off_t))
+
+    # The ground constraint's cost: the same solves with it on (the default) and off, interleaved.
+    plan_nog = plan_for(c, goal_bodies, IKParams(ground=False))
+    solver_nog = IKSolver(c, goal_bodies, IKParams(ground=False))
+    g_on, g_off = [], []
+    for pos, rot in sets:
+        fill(solver.goals, goal_bodies, pos, rot)
+        fill(solver_nog.goals, goal_bodies, pos, rot)
+        for _ in range(max(1, per_set // 2)):
+            g_on.extend(time_calls(lambda: solve_ik(plan, root_pos, root_rot, solver.goals, solver.out_pos,
+                                                    solver.out_rot, solver.scratch), 1, 5))
+            g_off.extend(time_calls(lambda: solve_ik(plan_nog, root_pos, root_rot, solver_nog.goals,
+                                                     solver_nog.out_pos, solver_nog.out_rot, solver_nog.scratch),
+                                    1, 5))
+    ground_us = float(np.median(g_on) - np.median(g_off))
     ncl = plan_on.arrays.cl_i
 
     # Batched: a crowd sharing the plan.
@@ -403,6 +423,8 @@ def main(argv=None):
         solve_us_p90=float(np.percentile(samples, 90)), batch_us_per_solve=batch_us, batch_size=nb,
         reach_error_rel_max=worst, reach_error_rel_max_no_self_collision=worst_off,
         self_collision_us=self_collision_us, solve_us_median_no_self_collision=float(np.median(off_t)),
+        ground_us=ground_us, solve_us_median_ground_on=float(np.median(g_on)),
+        solve_us_median_ground_off=float(np.median(g_off)),
         self_collision_proxies=int(ncl[0]), self_collision_pairs=int(ncl[2]), **chain,
         stage_us={k: round(v, 3) for k, v in stages.items()},
         first_run_s=round(compile_and_accuracy_s, 2), load_average=os.getloadavg()[0],
@@ -413,6 +435,7 @@ def main(argv=None):
             ("solve_us_p90", res["solve_us_p90"]), ("batch_us_per_solve", batch_us),
             ("reach_error_rel_max", worst), ("reach_error_rel_max_no_self_collision", worst_off),
             ("self_collision_us", self_collision_us), ("self_collision_pairs", int(ncl[2])),
+            ("ground_us", ground_us), ("solve_us_median_ground_off", res["solve_us_median_ground_off"]),
             ("chain_solve_us_median", chain["chain_solve_us_median"]),
             ("chain_error_max_m", chain["chain_error_max_m"]),
             ("ikpy_solve_us_median", chain["ikpy_solve_us_median"]),

@@ -173,21 +173,33 @@ def blend_layers(active, effective, layer, nlayer, sg_pos, sg_rot, sg_pw, sg_rw,
 
 @njit(cache=True)
 def solve_indexed(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw,
-                  out_pos, out_rot, scratch, bad):
+                  out_pos, out_rot, scratch, bad, ground_set):
     """IK for the characters ``idx`` of a stack that share one plan. ``bad[c]`` gets the
     input check code (-1 solved); a bad character keeps last frame's pose. Returns how
-    many were bad."""
+    many were bad. The IK's ground (``IKParams.ground``) is ``ik_ground``'s plane."""
     P = unpack(plan_i, plan_f, plan_f3, plan_f4)
     nbad = 0
     for k in range(idx.shape[0]):
-        nbad += solve_row(P, idx[k], root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot,
-                          scratch, bad)
+        r = idx[k]
+        nbad += solve_row(P, r, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot,
+                          scratch, bad, ik_ground(ground_set, r))
     return nbad
+
+
+@njit(cache=True)
+def ik_ground(ground_set, r):
+    """The plane (nx, ny, nz, d) the IK keeps row ``r``'s bodies above, character space: a
+    standing character stands on z = 0 there (``goals_above_ground``, the rest pose); a row
+    whose gait set the ground (``ground_set``) is left to its gait (a zero normal: off), so
+    a walker on rolling terrain is never pushed to a plane that is not its ground."""
+    if ground_set[r]:
+        return (0.0, 0.0, 0.0, 0.0)
+    return (0.0, 0.0, 1.0, 0.0)
 
 
 @njit(cache=True, parallel=True)
 def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root_rot, goal_pos, goal_rot, goal_pw,
-                           goal_rw, out_pos, out_rot, scratches, bad):
+                           goal_rw, out_pos, out_rot, scratches, bad, ground_set):
     """``solve_indexed`` on all cores: the rows ``idx`` split into ``scratches.shape[0]``
     contiguous chunks, each solved in turn by one thread with its own scratch
     ``scratches[chunk] (rows, 3)`` (solves share nothing else, and each starts from the
@@ -198,7 +210,9 @@ def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root
         P = unpack(plan_i, plan_f, plan_f3, plan_f4)
         sc = scratches[t]
         for k in range(t * n // nchunk, (t + 1) * n // nchunk):
-            solve_row(P, idx[k], root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot, sc, bad)
+            r = idx[k]
+            solve_row(P, r, root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, out_pos, out_rot, sc, bad,
+                      ik_ground(ground_set, r))
     nbad = 0
     for k in range(n):
         if bad[idx[k]] != -1:

@@ -548,12 +548,9 @@ def _body_floor(c: Creature) -> np.ndarray:
     where the body's box dips into it at rest (``RK.goals_above_ground``). Made once."""
     hit = _FLOORS.get(c)
     if hit is None:
-        from engine.mathx import quat_rotate
+        from engine.ik.plan import body_floor
 
-        signs = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
-        rest_low = np.array([c.body_rest_pos[b, 2] + min(quat_rotate(c.body_rest_rot[b], s * c.body_extent[b])[2]
-                                                         for s in signs) for b in range(c.nbody)])
-        hit = _FLOORS[c] = np.minimum(rest_low, 0.0)
+        hit = _FLOORS[c] = body_floor(c)      # the same rule as the IK's ground constraint
     return hit
 
 
@@ -651,7 +648,7 @@ def _solve_character(char: Character) -> None:
             b = char._plan.blobs
             call = char._solve_call = BoundKernel(RK.solve_indexed, (
                 b[0], b[1], b[2], b[3], _row(r), s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw,
-                s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad))
+                s.char_pos, s.char_rot, char._scratch_ik, s.ik_bad, s.ground_set))
         call.call()
         if s.ik_bad[r] != -1:
             _raise_ik(char, int(s.ik_bad[r]))
@@ -1027,12 +1024,12 @@ class _Group:
                 if scratches is None or not self._parallel:
                     nbad = RK.solve_indexed(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot, s.goal_pos,
                                             s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos, s.char_rot, scratch,
-                                            s.ik_bad)
+                                            s.ik_bad, s.ground_set)
                 else:
                     with numba.parallel_chunksize(1):   # chunks handed out as threads free up
                         nbad = RK.solve_indexed_parallel(b[0], b[1], b[2], b[3], idx, s.root_pos, s.root_rot,
                                                          s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.char_pos,
-                                                         s.char_rot, scratches, s.ik_bad)
+                                                         s.char_rot, scratches, s.ik_bad, s.ground_set)
                 if nbad:
                     row = int(idx[np.flatnonzero(s.ik_bad[idx] != -1)[0]])
                     _raise_ik(self.members[row], int(s.ik_bad[row]))

@@ -98,14 +98,14 @@ def test_parallel_ik_kernel_equals_serial_whatever_the_chunks(human, perform):
     ref_rot[idx] = 0.0
     bad = np.zeros(n, np.int64)
     assert RK.solve_indexed(*b, idx, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, ref_pos,
-                            ref_rot, scratch, bad) == 0
+                            ref_rot, scratch, bad, s.ground_set) == 0
     for chunks in (1, 3, 40):
         pos = np.zeros_like(ref_pos)
         rot = np.zeros_like(ref_rot)
         scratches = np.zeros((chunks,) + plan.scratch_shape)
         with numba.parallel_chunksize(1):
             nbad = RK.solve_indexed_parallel(*b, idx, s.root_pos, s.root_rot, s.goal_pos, s.goal_rot, s.goal_pw,
-                                             s.goal_rw, pos, rot, scratches, bad)
+                                             s.goal_rw, pos, rot, scratches, bad, s.ground_set)
         assert nbad == 0
         assert np.array_equal(pos[idx], ref_pos[idx])
         assert np.array_equal(rot[idx], ref_rot[idx])

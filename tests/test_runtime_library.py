@@ -55,6 +55,9 @@ PASSIVE_GROUND = ("a passive body (Jiggles) hanging from a body that is itself a
                   "contact turns it about its joint, and the joint is already low")
 PASSIVE_POP = ("a passive detail body (Jiggles) turning fast where the spine body it hangs from now swings to "
                "point at its neighbour's joint")
+GROUND_WHIP = ("new with the IK ground (s28 ground8): the snake's IK head turns faster as the ground lifts "
+               "its spine (0.02 -> 0.12 rad per frame) and the passive jaw and tongue hanging from it whip "
+               "(tongue 0.18 -> 0.73 rad per frame)")
 SPIDER_PALP = "the palps' goals are beyond what the palp's limb can reach in the pose the spine takes"
 SPINE_BRACE = ("a spine body held at a position goal braces its outward child's joint at its rest distance from the "
                "body's origin (engine/ik/plan.py); on random 107's pound_ground the head then turns 0.76 rad in one frame "
@@ -166,20 +169,19 @@ _known(IK_ARC, "rotation_pop", ""
        "random_112 perform 0.528; random_114 pick_up_rock 0.682; random_116 dance 0.523; random_116 hold_platter 1.497; "
        "random_116 perform 0.627; random_117 pick_fruit 0.727; "
        "random_117 point_at_target 0.695")
-_known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; crawler perform 0.0228; inchworm crouch 0.0553; inchworm jump_in_place 0.0497; "
-       "inchworm nod_at_target 0.0355; inchworm perform 0.049; octopus clap 0.0763; "
-       "octopus dance 0.097; octopus eat_fruit 0.2153; octopus hand_to_mouth 0.2224; octopus hold_platter 0.163; "
-       "octopus hug 0.1346; octopus perform 0.0806; octopus pick_up_rock 0.0281; octopus shrug 0.0229; "
-       "scorpion look_around 0.0375; snake dance 0.0598; snake jump_in_place 0.1201; snake look_around 1.0962; "
-       "snake perform 0.6799; snake roar 0.4694; random_104 jump_in_place 0.0232; "
-       "random_117 crouch 0.0292; random_117 jump_in_place 0.046; random_117 pound_ground 0.0461; "
-       "random_117 roar 0.1046; snake idle_breathe 0.0733; "
-       "random_117 look_around 0.2403; random_117 pick_up_rock 0.0706")
-_known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_head 0.0322; "
+_known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; inchworm crouch 0.0553; "
+       "inchworm jump_in_place 0.0497; inchworm nod_at_target 0.0355; octopus eat_fruit 0.2153; "
+       "octopus hand_to_mouth 0.2224; "
+       "octopus hold_platter 0.163; octopus pick_up_rock 0.0281; scorpion look_around 0.0375; "
+       "snake dance 0.0598; snake roar 0.4694; random_117 crouch 0.0292; "
+       "random_117 jump_in_place 0.046; random_117 pound_ground 0.0461; random_117 roar 0.1046; "
+       "snake idle_breathe 0.0733; random_117 pick_up_rock 0.0706")
+_known(PASSIVE_GROUND, "below_ground", "snake jump_in_place 0.1972; snake nod_at_target 0.53; snake shake_head 0.0322; "
        "random_114 pick_up_rock 0.0734; random_117 clap 0.035; "
        "random_117 nod_at_target 0.0211; random_117 pick_fruit 0.0569; random_117 point_at_target 0.0608; "
        "random_117 shrug 0.0813")
 _known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312; random_117 clap 0.558")
+_known(GROUND_WHIP, "rotation_pop", "snake jump_in_place 0.7326")
 _known(ROOT_CHILD, "rotation_pop", "random_116 hug 0.7481")
 _known(ROOT_CHILD, "below_ground", "random_117 perform 0.0886")
 _known(SPINE_BRACE, "rotation_pop", "random_107 pound_ground 0.7554")

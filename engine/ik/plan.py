@@ -70,6 +70,8 @@ class IKParams:
                                   # rest direction; the one ill-defined aim is straight behind): ``_aim_via``.
                                   # Off until the whole suite has run with it on (issue 16)
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
+    ground: bool = True           # every body's box kept above the ground plane passed to the solve (character
+                                  # space; z = 0 by default), down to its floor ``body_floor`` (issues 12/16)
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
@@ -89,6 +91,7 @@ class IKParams:
         v[K.P_LIMB_STRETCH] = self.limb_stretch
         v[K.P_GOAL_AIM] = self.goal_aim
         v[K.P_ROOT_PIN] = 1.0 if self.root_pin else 0.0
+        v[K.P_GROUND] = 1.0 if self.ground else 0.0
         return v
 
     def validate(self) -> None:
@@ -206,6 +209,17 @@ def fit_quintic(points: np.ndarray, ts: np.ndarray, regularization: float = 1e-3
     rhs = np.vstack([rhs, lam * np.array([chord, np.zeros(3), chord, np.zeros(3)])])
     x = np.linalg.lstsq(A, rhs, rcond=None)[0]
     return x[0], x[1], x[2], x[3]
+
+
+def body_floor(c) -> np.ndarray:
+    """(nbody,) the lowest each body's box corner may go relative to the ground, m: 0, or
+    lower where the box dips into the ground (z = 0) in the rest pose, so the rest pose
+    itself is never moved. The one rule for goals (``engine._runtime_kernels.goals_above_ground``)
+    and for the IK's ground constraint."""
+    signs = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+    low = np.array([float(c.body_rest_pos[b, 2]) + min(_qrot(c.body_rest_rot[b], s * c.body_extent[b])[2]
+                                                        for s in signs) for b in range(c.nbody)])
+    return np.minimum(low, 0.0)
 
 
 # -- the plan ---------------------------------------------------------------------------
@@ -813,6 +827,8 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
         ag_via=f64(ag_via, 3),
+        b_extent=f64(c.body_extent, 3), b_floor=f64(body_floor(c), 1),
+        b_ground_r=f64(np.linalg.norm(c.body_joint_offset, axis=1) + np.linalg.norm(c.body_extent, axis=1), 1),
     )
     # the rest splines' arc lengths and the interior bodies' shares of them: static, so
     # measured here once by the solve's own kernel rather than in every reconstruction

@@ -23,6 +23,12 @@ for the caller (secondary motion). Goals: ``goal_pos (nbody, 3)`` is the target 
 body's origin, ``goal_rot (nbody, 4)`` its target rotation (w, x, y, z), and
 ``goal_pos_weight`` / ``goal_rot_weight`` (nbody,) in [0, 1]; weight 0 means no goal. Only
 bodies in ``plan.goal_bodies`` are read.
+
+The ground (``IKParams.ground``, on by default): the solve runs in the character's space,
+where a creature stands on z = 0 in its rest pose; ``ground`` (4,) ``(nx, ny, nz, d)``, the
+plane n . x = d with n pointing up, says where the ground is instead (a zero normal: none).
+Every body's box is kept above it, down to its floor (``engine.ik.plan.body_floor``); goals
+are still met where they are, on or below it.
 """
 
 from __future__ import annotations
@@ -101,10 +107,25 @@ def _ok(a, shape):
             and (len(st) < 3 or st[-3] == 8 * shape[-1] * shape[-2]))
 
 
+#: The ground of a solve that names none: z = 0 of the character's space (its rest stance).
+GROUND_Z0 = np.array([0.0, 0.0, 1.0, 0.0])
+
+
+def _ground_plane(ground):
+    if ground is None:
+        return GROUND_Z0
+    g = np.ascontiguousarray(ground, dtype=np.float64)
+    if g.shape != (4,) or not np.all(np.isfinite(g)):
+        raise IKError(f"ground must be 4 finite numbers (nx, ny, nz, d), got {ground!r}", field="ground",
+                      subject=None)
+    return g
+
+
 def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarray, out_rot: np.ndarray,
-             scratch: np.ndarray) -> None:
+             scratch: np.ndarray, ground=None) -> None:
     """Solve one character: writes the IK sub-tree's world poses into ``out_pos``/``out_rot``.
     ``scratch`` comes from ``plan.make_scratch()``. Allocation-free after compilation.
+    ``ground``: the plane (nx, ny, nz, d) under the character (None: z = 0; see above).
 
     The goal, output and scratch arrays are checked the first time they are used with this
     plan and remembered (the plan holds them, so they cannot be freed and their identity
@@ -130,14 +151,15 @@ def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarr
         raise _bad_array("root_pos", root_pos, (3,))
     if not _ok(root_rot, (4,)):
         raise _bad_array("root_rot", root_rot, (4,))
+    gd = GROUND_Z0 if ground is None else _ground_plane(ground)
     b = plan.blobs
     entry = plan._entry
     if entry:
         # The compiled overload for these (validated) array types, called directly: skips
         # numba's per-call type resolution (as engine._fastcall does for the runtime).
-        code = entry(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch)
+        code = entry(b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch, gd)
     else:
-        args = (b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch)
+        args = (b[0], b[1], b[2], b[3], root_pos, root_rot, gp, gr, gpw, grw, out_pos, out_rot, scratch, gd)
         code = K.solve_packed(*args)
         if entry is None and not _NO_FASTCALL:
             try:
@@ -150,11 +172,12 @@ def solve_ik(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos: np.ndarr
 
 
 def solve_ik_batch(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos, out_rot, scratch,
-                   bad: np.ndarray | None = None) -> None:
+                   bad: np.ndarray | None = None, ground=None) -> None:
     """Many independent solves sharing ``plan`` in one kernel call: ``root_pos (c, 3)``,
     ``root_rot (c, 4)``, ``goals`` made with ``IKGoals(nbody, c)``, ``out_pos (c, nbody, 3)``,
     ``out_rot (c, nbody, 4)``. ``bad`` (c,) int64, if given, receives a per-character code
-    (-1 solved) and nothing is raised; otherwise the first bad character raises."""
+    (-1 solved) and nothing is raised; otherwise the first bad character raises.
+    ``ground``: one plane (4,) for all, or one per character (c, 4); None: z = 0."""
     n = plan.creature.nbody
     c = root_pos.shape[0] if isinstance(root_pos, np.ndarray) and root_pos.ndim == 2 else -1
     _check_array("root_pos", root_pos, (c, 3))
@@ -166,11 +189,17 @@ def solve_ik_batch(plan: IKPlan, root_pos, root_rot, goals: IKGoals, out_pos, ou
     _check_array("out_pos", out_pos, (c, n, 3))
     _check_array("out_rot", out_rot, (c, n, 4))
     _check_array("scratch", scratch, plan.scratch_shape)
+    g = GROUND_Z0 if ground is None else np.asarray(ground, dtype=np.float64)
+    if g.shape == (4,):
+        g = np.tile(g, (c, 1))
+    g = np.ascontiguousarray(g)
+    if g.shape != (c, 4) or not np.all(np.isfinite(g)):
+        raise IKError(f"ground must be (4,) or ({c}, 4) finite planes (nx, ny, nz, d)", field="ground", subject=None)
     raise_on_bad = bad is None
     if bad is None:
         bad = np.empty(c, np.int64)
     nbad = K.solve_packed_batch(*plan.blobs, root_pos, root_rot, goals.goal_pos, goals.goal_rot,
-                                goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch, bad)
+                                goals.goal_pos_weight, goals.goal_rot_weight, out_pos, out_rot, scratch, bad, g)
     if nbad and raise_on_bad:
         k = int(np.flatnonzero(bad != -1)[0])
         _raise_bad(plan, int(bad[k]), who=f"character {k}: ")
@@ -193,9 +222,9 @@ class IKSolver:
         self.out_rot = np.zeros((n, 4))
         self.out_rot[:, 0] = 1.0
 
-    def solve(self, root_pos, root_rot):
+    def solve(self, root_pos, root_rot, ground=None):
         solve_ik(self.plan, np.ascontiguousarray(root_pos, np.float64), np.ascontiguousarray(root_rot, np.float64),
-                 self.goals, self.out_pos, self.out_rot, self.scratch)
+                 self.goals, self.out_pos, self.out_rot, self.scratch, ground)
         return self.out_pos, self.out_rot
 
 
