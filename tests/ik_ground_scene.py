@@ -38,7 +38,7 @@ def _floor(c):
 def scene(params=None):
     """Yield (name, k, plan, root_pos, root_rot, goals) for every case and goal set."""
     import engine
-    from engine.ik import IKGoals, plan_for
+    from engine.ik import IKGoals, IKParams, plan_for
     from engine.ik.testing import random_reachable_pose
 
     for fname, drop, names in CASES:
@@ -48,7 +48,7 @@ def scene(params=None):
             goal_bodies = [b for b in leaves if not c.body_is_spine[b]] or leaves
         else:
             goal_bodies = [c.body(n) for n in names]
-        plan = plan_for(c, goal_bodies) if params is None else plan_for(c, goal_bodies, params)
+        plan = plan_for(c, goal_bodies, IKParams(ground=True) if params is None else params)
         rng = np.random.default_rng(7)
         root_rot = np.ascontiguousarray(c.body_rest_rot[0], np.float64)
         root_pos = np.ascontiguousarray(c.body_rest_pos[0] * np.array([1.0, 1.0, drop]), np.float64)

@@ -58,7 +58,7 @@ def test_ground_off_reproduces_the_solver_from_before():
     """The canned scene solved with ``ground=False`` gives the poses the solver gave before
     the constraint existed (written by tests/ik_ground_scene.py on that checkout)."""
     ref = np.load(REFERENCE)
-    got = scene.solve_scene(IKParams(ground=False))
+    got = scene.solve_scene(IKParams(ground=False, aim_via=False))
     assert set(got) == set(ref.files)
     for k, v in got.items():
         assert np.max(np.abs(v - ref[k])) <= 1e-12, k
@@ -92,7 +92,7 @@ def test_snake_look_around_stays_above_its_floor():
     """The grid's worst below_ground cell (body3 0.91 of the height under the ground):
     every frame's lowest IK box corner is above its floor within 0.5% of the height."""
     c = engine.load_creature(os.path.join(HERE, "creatures", "snake.yaml"))
-    assert worst_below_floor(c, play(c, "look_around", IKParams())) <= 0.005
+    assert worst_below_floor(c, play(c, "look_around", IKParams(ground=True))) <= 0.005
     assert worst_below_floor(c, play(c, "look_around", IKParams(ground=False), seconds=4.0)) > 0.1
 
 
@@ -102,7 +102,7 @@ def test_random_creature_stays_above_its_floor():
     from engine.model.random import random_creature_def
 
     c = build_creature(random_creature_def(3))
-    frames = play(c, "crouch", IKParams())
+    frames = play(c, "crouch", IKParams(ground=True))
     assert worst_below_floor(c, frames) <= 0.005
 
 
@@ -151,7 +151,7 @@ def test_ground_is_continuous_as_a_goal_sweeps_into_it():
     all the way down (a goal below the floor is still met)."""
     c = engine.load_creature(os.path.join(HERE, "creatures", "octopus.yaml"))
     tip = c.body("arm2tip_l")
-    plan = plan_for(c, [tip])
+    plan = plan_for(c, [tip], IKParams(ground=True))
     n = c.nbody
     rp = np.ascontiguousarray(c.body_rest_pos[0], np.float64)
     rr = np.ascontiguousarray(c.body_rest_rot[0], np.float64)

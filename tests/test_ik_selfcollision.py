@@ -165,7 +165,7 @@ def test_hand_to_mouth_does_not_enter_the_head():
     w_on, w_off = worst(on, ctx, c, arms, head), worst(off, ctx, c, arms, head)
     assert w_off > FAIL             # without it the upper arm goes into the head
     # two rounds (the cost floor) leave the raised upper arm about 0.06 h in the head's
-    # box; see /work/notes/selfcol.md
+    # box (capsule proxies are round; the head's box is not)
     assert w_on < 0.8 * w_off
 
 
@@ -176,7 +176,7 @@ def test_library_creatures_with_arms_stay_out_of_themselves(name):
     other, the forearms' flat boxes then overlap 0.063 h; 0.064 h without) and giant
     hand_to_mouth (forearm into the chest's box, 0.071 -> under 0.0665 h with its goals
     settled in front of the face; 0.064 h before the settle). Capsules are round:
-    box proxies would close the rest (/work/notes/s22-selfon.md)."""
+    box proxies would close the rest."""
     short = {("gorilla", "clap"): 0.065, ("giant", "hand_to_mouth"): 0.0665}
     c = creature(name)
     for a in ("clap", "hug", "hand_to_mouth"):

@@ -66,11 +66,10 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
-    aim_via: bool = False         # a limb's aim turns it through forward (no flip for goals opposite its
+    aim_via: bool = True          # a limb's aim turns it through forward (no flip for goals opposite its
                                   # rest direction; the one ill-defined aim is straight behind): ``_aim_via``.
-                                  # Off until the whole suite has run with it on (issue 16)
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
-    ground: bool = True           # every body's box kept above the ground plane passed to the solve (character
+    ground: bool = False          # every body's box kept above the ground plane passed to the solve (character
                                   # space; z = 0 by default), down to its floor ``body_floor`` (issues 12/16)
 
     def vector(self) -> np.ndarray:
