@@ -71,8 +71,8 @@ NPARAM = 22
 # contact kinds per body
 KIND_NONE, KIND_GROUND, KIND_FOOT = 0, 1, 2
 
-# foot bodies whose ground contacts are solved through the articulated tree (the rest, and
-# foot bodies past this many in contact at once, keep the body-only contact rows)
+# bodies whose ground contacts are solved through the articulated tree, at most (feet
+# first; bodies past this many in contact at once keep the body-only contact rows)
 MAX_CONTACT_BODIES = 16
 # Gauss-Seidel sweeps over those contacts per pass, in contact space (cheap: no tree solve)
 CONTACT_SWEEPS = 4
@@ -823,8 +823,10 @@ def _warm_start(m, s):
 # Why: a contact row whose effective mass is its own body's (1/m + r x d . I^-1 r x d) stops
 # the foot, then the exact tree joint solve that follows shares that stop with the whole
 # body (the foot is held by the leg, the leg by the trunk), so one pass removes only a part
-# of a planted foot's slip (0.42 m/s mean on the humanoid's lookahead, issue 13). Here the
-# foot contacts are solved against the whole body's response instead:
+# of a planted foot's slip (0.42 m/s mean on the humanoid's lookahead, issue 13), and a
+# light body landing with a heavy one sinks. Here the ground contacts of up to
+# MAX_CONTACT_BODIES bodies ("slots", feet first) are solved against the whole body's
+# response instead:
 #   Phi_kl (6x6) = the velocity (linear, angular) of slot body k for a unit impulse (force
 #   at the centre of mass, torque) on slot body l, through the tree with every joint held:
 #   the body rows of [[M, J^T], [J, C]]^-1, C the servo compliance; read from the
@@ -834,42 +836,45 @@ def _warm_start(m, s):
 # contact-space inverse mass between contacts f (on k) and g (on l) is G_f^T Phi_kl G_g. The
 # contacts are then solved by Gauss-Seidel in contact space (normal, friction cone, spin
 # friction, as the body-only rows), every impulse moving every slot body by Phi, and the
-# pass's impulses are put on the foot bodies; the direct joint solve after them spreads
+# pass's impulses are put on the slot bodies; the direct joint solve after them spreads
 # them through the tree to exactly the velocities Phi predicted, provided the velocities
 # the contacts read were joint-consistent: so a direct solve runs before the contacts too.
 
 
 @njit(cache=True)
 def _contact_bodies(m, s):
-    """Slots (foot bodies with an active ground contact), the needed nodes and Phi."""
+    """Slots (bodies with an active ground contact: feet first, then the others, up to the
+    slot count), the needed nodes and Phi."""
     nb = m.body_inv_mass.shape[0]
     kmax = s.cbody.shape[0]
     for b in range(nb):
         s.body_cslot[b] = -1
     K = 0
-    for f in range(m.feat_body.shape[0]):
-        if s.feat_active[f] == 0:
-            continue
-        b = m.feat_body[f]
-        if m.body_contact_kind[b] != KIND_FOOT or m.body_inv_mass[b] == 0.0 or s.body_cslot[b] >= 0:
-            continue
-        if K >= kmax:
-            continue
-        s.body_cslot[b] = K
-        s.cbody[K] = b
-        K += 1
+    for kind in (KIND_FOOT, KIND_GROUND):
+        for f in range(m.feat_body.shape[0]):
+            if s.feat_active[f] == 0:
+                continue
+            b = m.feat_body[f]
+            if m.body_contact_kind[b] != kind or m.body_inv_mass[b] == 0.0 or s.body_cslot[b] >= 0:
+                continue
+            if K >= kmax:
+                break
+            s.body_cslot[b] = K
+            s.cbody[K] = b
+            K += 1
     s.cbody_n[0] = K
     if K == 0:
         return
-    # the nodes on the way from each slot body to its root
+    # need[i] = 1 + the highest slot in node i's subtree (0: none): Phi is symmetric,
+    # Phi_lk = Phi_kl^T, so column l needs only the nodes above slots k >= l
     nnode = m.node_parent.shape[0]
     need = s.node_need
     for i in range(nnode):
         need[i] = 0
     for k in range(K):
         i = s.cbody[k]
-        while i >= 0 and need[i] == 0:
-            need[i] = 1
+        while i >= 0 and need[i] < k + 1:
+            need[i] = k + 1
             i = m.node_parent[i]
     cnt = 0
     for q in range(m.node_order.shape[0]):
@@ -887,6 +892,8 @@ def _contact_bodies(m, s):
         for e in range(6):
             for q in range(cnt):
                 i = s.need_order[q]
+                if need[i] <= l:
+                    continue
                 for r in range(6):
                     x[i, r] = 0.0
                     z[i, r] = 0.0
@@ -912,9 +919,11 @@ def _contact_bodies(m, s):
                         acc += L[t, cc] * x[i, t]
                     x[p, cc] -= acc
                 i = p
-            # back substitution over the needed nodes, root first
+            # back substitution, root first, over the nodes above slots l..K-1
             for q in range(cnt):
                 i = s.need_order[q]
+                if need[i] <= l:
+                    continue
                 d = s.node_dim[i]
                 p = m.node_parent[i]
                 if p >= 0:
@@ -928,10 +937,11 @@ def _contact_bodies(m, s):
                 else:
                     for r in range(d):
                         x[i, r] = z[i, r]
-            for k in range(K):
+            for k in range(l, K):
                 b = s.cbody[k]
                 for r in range(6):
                     phi[k, l, r, e] = x[b, r]
+                    phi[l, k, e, r] = x[b, r]
     # each contact's own articulated masses: normal, the tangent plane's 2x2 (inverted), spin
     for f in range(m.feat_body.shape[0]):
         if s.feat_active[f] == 0:
@@ -1003,13 +1013,11 @@ def _slot_point_vel(s, k, rx, ry, rz):
 
 
 @njit(cache=True)
-def _solve_foot_contacts(m, s, h, use_bias):
+def _solve_slot_contacts(m, s, h, use_bias):
     """The slot bodies' ground contacts, Gauss-Seidel in contact space (see above), then the
     pass's impulses on the foot bodies (the direct joint solve after spreads them)."""
     K = s.cbody_n[0]
     max_push = m.params[P_MAX_PUSH]
-    hz, zeta, mu, spin_mu = (m.params[P_FOOT_HZ], m.params[P_FOOT_ZETA], m.params[P_FOOT_MU],
-                             m.params[P_FOOT_SPIN_MU])
     for k in range(K):
         b = s.cbody[k]
         for c in range(3):
@@ -1026,6 +1034,12 @@ def _solve_foot_contacts(m, s, h, use_bias):
             k = s.body_cslot[b]
             if k < 0:
                 continue
+            if m.body_contact_kind[b] == KIND_FOOT:
+                hz, zeta, mu, spin_mu = (m.params[P_FOOT_HZ], m.params[P_FOOT_ZETA], m.params[P_FOOT_MU],
+                                         m.params[P_FOOT_SPIN_MU])
+            else:
+                hz, zeta, mu, spin_mu = (m.params[P_GROUND_HZ], m.params[P_GROUND_ZETA], m.params[P_GROUND_MU],
+                                         m.params[P_GROUND_SPIN_MU])
             rx, ry, rz = s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2]
             nx, ny, nz = s.feat_normal[f, 0], s.feat_normal[f, 1], s.feat_normal[f, 2]
             px, py, pz = _world_point(m, s, b, m.feat_local[f, 0], m.feat_local[f, 1], m.feat_local[f, 2])
@@ -1073,7 +1087,7 @@ def _solve_foot_contacts(m, s, h, use_bias):
                 s.feat_imp[f, 3] = n3
                 d3 = n3 - o3
                 _slot_impulse(s, K, k, 0.0, 0.0, 0.0, d3 * nx, d3 * ny, d3 * nz)
-    # the pass's impulses, on the foot bodies alone
+    # the pass's impulses, on the slot bodies alone
     for f in range(m.feat_body.shape[0]):
         if s.feat_active[f] == 0:
             continue
@@ -1504,7 +1518,7 @@ def _solve_contacts(m, s, h, use_bias):
     max_push = m.params[P_MAX_PUSH]
     articulated = s.cbody_n[0] > 0
     if articulated:
-        _solve_foot_contacts(m, s, h, use_bias)
+        _solve_slot_contacts(m, s, h, use_bias)
     for f in range(m.feat_body.shape[0]):
         if s.feat_active[f] == 0:
             continue

@@ -90,13 +90,13 @@ class StateArrays(NamedTuple):
     node_work: np.ndarray
     node_x: np.ndarray
     node_z: np.ndarray
-    # the foot contacts' articulated solve (direct solver): k = min(foot bodies, MAX_CONTACT_BODIES)
+    # ground contacts through the tree (direct solver): k = min(contact bodies, MAX_CONTACT_BODIES)
     cbody: np.ndarray            # (k,) int32 body of each contact slot
     cbody_n: np.ndarray          # (1,) int32 slots in use this substep
     body_cslot: np.ndarray       # (n,) int32 slot of each body, -1: none
     cbody_phi: np.ndarray        # (k, k, 6, 6) articulated inverse inertia between slots
     cbody_vel: np.ndarray        # (k, 6) slot bodies' velocity (lin, ang) during the solve
-    node_need: np.ndarray        # (n + j,) int32 1: an ancestor of a slot body (or one)
+    node_need: np.ndarray        # (n + j,) int32 1 + the highest slot in the node's subtree, 0: none
     need_order: np.ndarray       # (n + j,) int32 those nodes, root first; count in need_n
     need_n: np.ndarray           # (1,) int32
     feat_amass: np.ndarray       # (f, 5) articulated masses: normal, 2x2 tangent inverse, spin
@@ -113,7 +113,7 @@ class PhysicsState:
     def __init__(self, model: PhysicsModel) -> None:
         n, j = model.nbody, model.njoint
         f, p = model.feat_body.shape[0], model.pair_a.shape[0]
-        k = min(int(np.count_nonzero(np.asarray(model.body_contact_kind) == K.KIND_FOOT)), K.MAX_CONTACT_BODIES)
+        k = min(int(np.count_nonzero(np.asarray(model.body_contact_kind) != K.KIND_NONE)), K.MAX_CONTACT_BODIES)
         z = np.zeros
         self.model = model
         self.arrays = StateArrays(
