@@ -459,6 +459,50 @@ def test_a_foot_pushed_past_friction_decelerates_at_mu_g():
     assert state.body_pos[0, 0] == pytest.approx(expect, rel=0.02)
 
 
+def test_a_leaning_chain_on_a_planted_foot_topples_like_an_inverted_pendulum():
+    """A foot on the ground, a passive ankle, a shin and a trunk held on it by a servo, leaning
+    over the toes: the planted foot must hold, and nothing else. The ground contacts solved
+    through the tree must not make the standing body stiffer than it is: the chain above the
+    ankle tips as a rigid inverted pendulum, theta0 cosh(lambda t), lambda^2 = M g L / I."""
+    lean = 0.02
+    foot = ContactSettings(hz=60.0, zeta=1.0, mu=1.0, spin_mu=0.5)
+    d = np.array([np.sin(lean), 0.0, np.cos(lean)])
+    ank = np.array([0.0, 0.0, 0.06])
+    knee, top = ank + 0.4 * d, ank + 1.0 * d
+    specs = [
+        BodySpec("foot", "box", np.array([0.03, 0.0, 0.03]), ID, half_extents=np.array([0.12, 0.05, 0.03]),
+                 contact="foot"),
+        BodySpec("shin", "capsule", (ank + knee) / 2, qy(lean), radius=0.05, half_length=0.15, axis=2, parent=0,
+                 joint=ank, contact="none"),
+        BodySpec("trunk", "capsule", (knee + top) / 2, qy(lean), radius=0.12, half_length=0.18, axis=2, parent=1,
+                 joint=knee, contact="none", servo_hz=5.0),
+    ]
+    model = build_model(specs, settings=WorldSettings(foot=foot))
+    state = PhysicsState(model)
+    mass = model.body_mass[1:]
+    inertia = model.arrays.body_inertia[1:]
+
+    def pitch():
+        com = (mass[:, None] * state.body_pos[1:]).sum(0) / mass.sum()
+        r = com - ank
+        return math.atan2(r[0], r[2]), math.hypot(r[0], r[2])
+    th0, L = pitch()
+    I = sum(inertia[i, 1] + mass[i] * ((state.body_pos[1 + i, 0] - ank[0]) ** 2
+                                     + (state.body_pos[1 + i, 2] - ank[2]) ** 2)
+            for i in range(2))                      # about y through the ankle (capsules along their z)
+    lam = math.sqrt(mass.sum() * 9.81 * L / I)
+    dt, t = 1 / 240, 0.0
+    while pitch()[0] < 0.2 and t < 3.0:
+        step(model, state, dt)
+        t += dt
+    expect = math.acosh(0.2 / th0) / lam
+    slid = float(np.hypot(*(state.body_pos[0, :2] - [0.03, 0.0])))
+    print(f"\nleaning chain: tipped to 0.2 rad in {t:.3f} s (rigid inverted pendulum {expect:.3f} s), "
+          f"foot slid {slid * 1e3:.2f} mm")
+    assert t == pytest.approx(expect, rel=0.1)
+    assert slid < 2e-3
+
+
 # ---------------------------------------------------------------------------------------
 # Robustness, with figures
 # ---------------------------------------------------------------------------------------
