@@ -12,7 +12,7 @@ touched the ground when the hit landed (its surface within 5 mm), while it carri
 v + w x r at the point on the surface nearest the ground). Printed per creature and
 simulation: the median and mean of the samples, their p95, and the share of samples where
 friction was saturated (|tangential impulse| >= 0.999 mu normal impulse: the push exceeds
-friction there, a slide is the right answer). Drift: Simulation 1's root, the ground-plane
+friction there, a slide is the right answer) and the mean slip where it was and where not. Drift: Simulation 1's root, the ground-plane
 component perpendicular to the push, largest |.| over the lookahead; and along the push.
 """
 
@@ -148,7 +148,8 @@ def run(name, sizes, ndir=8, sim1_iterations=1):
                                   mean=float(s.mean()) if len(s) else np.nan,
                                   p95=float(np.percentile(s, 95)) if len(s) else np.nan,
                                   saturated=float(sat.mean()) if len(sat) else np.nan,
-                                  mean_unsat=float(s[~sat].mean()) if (~sat).any() else np.nan)
+                                  mean_unsat=float(s[~sat].mean()) if (~sat).any() else np.nan,
+                                  mean_sat=float(s[sat].mean()) if sat.any() else np.nan)
     out["drift_side_max"] = float(np.max(drift))
     out["drift_side_median"] = float(np.median(drift))
     out["along_median"] = float(np.median(along))
@@ -168,7 +169,7 @@ def main():
             s = o[f"sim{which}"]
             print(f"{name:10s} sim{which}: planted-foot slip median {s['median']:.4f} mean {s['mean']:.4f} "
                   f"p95 {s['p95']:.4f} m/s over {s['n']} samples; friction saturated {s['saturated']:.2f} "
-                  f"(mean slip where not {s['mean_unsat']:.4f})")
+                  f"(mean slip where not {s['mean_unsat']:.4f}, where saturated {s['mean_sat']:.4f})")
         print(f"{name:10s} sim1 root: sideways drift max {o['drift_side_max']:.3f} median "
               f"{o['drift_side_median']:.3f} m; along the push (end) median {o['along_median']:.3f} m")
 

@@ -373,6 +373,136 @@ def test_foot_spin_friction_stops_free_spinning():
     assert spun[0.0] > 5.9
 
 
+def _standing_leg(locked=False, spin=0.0):
+    """A box foot on the ground, a shin and a thigh on it (ball joints, or locked), the
+    thigh leaning over the toes."""
+    foot = ContactSettings(hz=60.0, zeta=1.0, mu=0.5, spin_mu=spin)
+    specs = [
+        BodySpec("foot", "box", np.array([0.03, 0.0, 0.03]), ID, half_extents=np.array([0.1, 0.05, 0.03]),
+                 contact="foot"),
+        BodySpec("shin", "capsule", np.array([0.0, 0.0, 0.26]), ID, radius=0.04, half_length=0.16, axis=2,
+                 parent=0, joint=np.array([0.0, 0.0, 0.06]), locked=locked, contact="none"),
+        BodySpec("thigh", "capsule", np.array([0.05, 0.0, 0.66]), qy(0.2), radius=0.06, half_length=0.14,
+                 axis=2, parent=1, joint=np.array([0.0, 0.0, 0.46]), locked=locked, contact="none"),
+    ]
+    return build_model(specs, settings=WorldSettings(foot=foot))
+
+
+def test_contact_body_inverse_inertia_against_numpy():
+    """Phi (the bodies' velocity for a unit impulse on a ground-contact body, every joint
+    held) against the dense saddle-point system [[M, J^T], [J, 0]] in numpy."""
+    from engine.physics import _kernels as K
+
+    model = _standing_leg()
+    state = PhysicsState(model)
+    state.body_rot[2] = qy(0.5)                     # thigh turned off its rest: r_a, r_b both matter
+    m, s = model.arrays, state.arrays
+    K._prepare(m, s, DT)
+    assert s.cbody_n[0] == 1 and s.cbody[0] == 0
+    n, nj = model.nbody, model.njoint
+    M = np.zeros((6 * n, 6 * n))
+    for b in range(n):
+        M[6 * b:6 * b + 3, 6 * b:6 * b + 3] = model.body_mass[b] * np.eye(3)
+        M[6 * b + 3:6 * b + 6, 6 * b + 3:6 * b + 6] = np.linalg.inv(s.body_iinv_world[b])
+
+    def skew(r):
+        return np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+    J = np.zeros((3 * nj, 6 * n))
+    for j in range(nj):
+        a, b = model.joint_parent[j], model.joint_child[j]
+        J[3 * j:3 * j + 3, 6 * a:6 * a + 3] = -np.eye(3)
+        J[3 * j:3 * j + 3, 6 * a + 3:6 * a + 6] = skew(s.joint_ra[j])
+        J[3 * j:3 * j + 3, 6 * b:6 * b + 3] = np.eye(3)
+        J[3 * j:3 * j + 3, 6 * b + 3:6 * b + 6] = -skew(s.joint_rb[j])
+    A = np.block([[M, J.T], [J, np.zeros((3 * nj, 3 * nj))]])
+    inv = np.linalg.inv(A)[:6, :6]                  # the foot's rows and columns
+    np.testing.assert_allclose(s.cbody_phi[0, 0], inv, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(s.cbody_phi[0, 0], s.cbody_phi[0, 0].T, atol=1e-12)
+    # the leg answers a push at the foot: less velocity than the foot alone's 1/m
+    assert s.cbody_phi[0, 0, 0, 0] < 0.9 / model.body_mass[0]
+
+
+def test_planted_foot_holds_and_a_push_past_friction_slides():
+    """A standing leg hit sideways on the thigh: a push the friction cone can hold leaves
+    the planted foot where it is; one past it slides the foot."""
+    slips = {}
+    for v0 in (0.2, 2.0):
+        model = _standing_leg()
+        state = PhysicsState(model)
+        step(model, state, DT, steps=200)
+        state.body_linvel[2, 1] += v0
+        slip = []
+        for _ in range(20):
+            step(model, state, DT, steps=10)
+            slip.append(float(np.hypot(*state.body_linvel[0, :2])))
+        assert np.all(np.isfinite(state.body_pos))
+        slips[v0] = float(np.mean(slip))
+    print(f"\nleg hit on the thigh: mean foot slip over 0.1 s after a 0.2 m/s push {slips[0.2]:.2e} m/s, "
+          f"after 2 m/s {slips[2.0]:.2e} m/s")
+    assert slips[0.2] < 1e-3                        # held (0.42 m/s was the humanoid's before)
+    assert slips[2.0] > 10 * slips[0.2]             # slides
+
+
+def test_a_foot_pushed_past_friction_decelerates_at_mu_g():
+    """A box foot sent sliding: friction caps the contact impulse at mu times the normal
+    one, so it stops after v^2 / (2 mu g)."""
+    box = build_model([BodySpec("foot", "box", np.array([0.0, 0.0, 0.03]), ID,
+                                half_extents=np.array([0.1, 0.05, 0.03]), contact="foot")],
+                      settings=WorldSettings(foot=ContactSettings(hz=60.0, zeta=1.0, mu=0.5)))
+    state = PhysicsState(box)
+    step(box, state, DT, steps=200)
+    state.body_linvel[0, 0] = 2.0
+    step(box, state, DT, steps=2000)
+    expect = 2.0 ** 2 / (2 * 0.5 * 9.81)
+    print(f"\nbox foot at 2 m/s, mu 0.5: slid {state.body_pos[0, 0]:.4f} m (v^2 / 2 mu g = {expect:.4f})")
+    assert abs(state.body_linvel[0, 0]) < 1e-3
+    assert state.body_pos[0, 0] == pytest.approx(expect, rel=0.02)
+
+
+def test_a_leaning_chain_on_a_planted_foot_topples_like_an_inverted_pendulum():
+    """A foot on the ground, a passive ankle, a shin and a trunk held on it by a servo, leaning
+    over the toes: the planted foot must hold, and nothing else. The ground contacts solved
+    through the tree must not make the standing body stiffer than it is: the chain above the
+    ankle tips as a rigid inverted pendulum, theta0 cosh(lambda t), lambda^2 = M g L / I."""
+    lean = 0.02
+    foot = ContactSettings(hz=60.0, zeta=1.0, mu=1.0, spin_mu=0.5)
+    d = np.array([np.sin(lean), 0.0, np.cos(lean)])
+    ank = np.array([0.0, 0.0, 0.06])
+    knee, top = ank + 0.4 * d, ank + 1.0 * d
+    specs = [
+        BodySpec("foot", "box", np.array([0.03, 0.0, 0.03]), ID, half_extents=np.array([0.12, 0.05, 0.03]),
+                 contact="foot"),
+        BodySpec("shin", "capsule", (ank + knee) / 2, qy(lean), radius=0.05, half_length=0.15, axis=2, parent=0,
+                 joint=ank, contact="none"),
+        BodySpec("trunk", "capsule", (knee + top) / 2, qy(lean), radius=0.12, half_length=0.18, axis=2, parent=1,
+                 joint=knee, contact="none", servo_hz=5.0),
+    ]
+    model = build_model(specs, settings=WorldSettings(foot=foot))
+    state = PhysicsState(model)
+    mass = model.body_mass[1:]
+    inertia = model.arrays.body_inertia[1:]
+
+    def pitch():
+        com = (mass[:, None] * state.body_pos[1:]).sum(0) / mass.sum()
+        r = com - ank
+        return math.atan2(r[0], r[2]), math.hypot(r[0], r[2])
+    th0, L = pitch()
+    I = sum(inertia[i, 1] + mass[i] * ((state.body_pos[1 + i, 0] - ank[0]) ** 2
+                                     + (state.body_pos[1 + i, 2] - ank[2]) ** 2)
+            for i in range(2))                      # about y through the ankle (capsules along their z)
+    lam = math.sqrt(mass.sum() * 9.81 * L / I)
+    dt, t = 1 / 240, 0.0
+    while pitch()[0] < 0.2 and t < 3.0:
+        step(model, state, dt)
+        t += dt
+    expect = math.acosh(0.2 / th0) / lam
+    slid = float(np.hypot(*(state.body_pos[0, :2] - [0.03, 0.0])))
+    print(f"\nleaning chain: tipped to 0.2 rad in {t:.3f} s (rigid inverted pendulum {expect:.3f} s), "
+          f"foot slid {slid * 1e3:.2f} mm")
+    assert t == pytest.approx(expect, rel=0.1)
+    assert slid < 2e-3
+
+
 # ---------------------------------------------------------------------------------------
 # Robustness, with figures
 # ---------------------------------------------------------------------------------------

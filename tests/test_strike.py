@@ -49,6 +49,7 @@ def _bout(dist, victim_creature=HUM, frames=200):
     turn_a = turn_v = 0.0
     landed = back_a = back_v = None
     v0 = v.world_positions[0].copy()
+    reach = 0.0
     for k in range(frames):
         a.tick(DT)
         v.tick(DT)
@@ -58,16 +59,17 @@ def _bout(dist, victim_creature=HUM, frames=200):
         turn_a = max(turn_a, float(np.linalg.norm(rotvec_between(pa, a.world_rotations), axis=1).max()))
         turn_v = max(turn_v, float(np.linalg.norm(rotvec_between(pv, v.world_rotations), axis=1).max()))
         pa, pv = a.world_rotations.copy(), v.world_rotations.copy()
+        reach = max(reach, float(v.world_positions[0, 0] - v0[0]))
         assert np.all(np.isfinite(a.world_positions)) and np.all(np.isfinite(v.world_positions))
         if landed is not None and back_a is None and not a.reacting:
             back_a = (k - landed) * DT
         if landed is not None and back_v is None and not v.reacting:
             back_v = (k - landed) * DT
-    return st, landed, back_a, back_v, turn_a, turn_v, v.world_positions[0] - v0
+    return st, landed, back_a, back_v, turn_a, turn_v, v.world_positions[0] - v0, reach
 
 
 def test_punch_lands_victim_reacts_attacker_recoils():
-    st, landed, back_a, back_v, turn_a, turn_v, moved = _bout(0.6)
+    st, landed, back_a, back_v, turn_a, turn_v, moved, reach = _bout(0.6)
     assert landed is not None and len(st.contacts) == 1          # one strike per approach
     c = st.contacts[0]
     assert HUM.body_names[c.attacker_body] in ("hand_r", "forearm_r")
@@ -75,7 +77,12 @@ def test_punch_lands_victim_reacts_attacker_recoils():
     assert back_a is not None and back_a < 0.8                    # measured 0.63 s (0.1 s recoil + blend)
     assert back_v is not None and back_v < 2.0
     assert turn_a < 0.5 and turn_v < 0.5                          # measured 0.33 / 0.25 rad per frame
-    assert moved[0] > 0.02                                        # pushed away from the attacker
+    # pushed away from the attacker: the victim's root sways back during the reaction and ends
+    # behind where it stood. Measured with the planted feet held (ground contacts through the
+    # tree, issue 13): 10.6 N s on spine2 (0.19 m/s on 57 kg), the root 0.064 m back at most, 0.011 m
+    # at the end; before, the feet slid and it ended > 0.02 m back (the old bound, on the end alone)
+    assert reach > 0.04, reach
+    assert moved[0] > 0.005, moved
 
 
 def test_out_of_reach_no_contact():
@@ -86,7 +93,7 @@ def test_out_of_reach_no_contact():
 @pytest.mark.parametrize("seed", [0, 6])     # 1.9 m and 1.2 m tall: in a humanoid's reach
 def test_punch_on_a_random_creature(seed):
     c = build_creature(random_creature_def(seed))
-    st, landed, back_a, back_v, turn_a, turn_v, moved = _bout(0.55, victim_creature=c)
+    st, landed, back_a, back_v, turn_a, turn_v, moved, reach = _bout(0.55, victim_creature=c)
     assert landed is not None
     assert back_a is not None and back_v is not None and back_v < 2.0
     assert turn_a < 0.5

@@ -71,6 +71,16 @@ NPARAM = 22
 # contact kinds per body
 KIND_NONE, KIND_GROUND, KIND_FOOT = 0, 1, 2
 
+# bodies whose ground contacts are solved through the articulated tree, at most (feet
+# first; bodies past this many in contact at once keep the body-only contact rows)
+MAX_CONTACT_BODIES = 16
+# Gauss-Seidel sweeps over those contacts per pass, in contact space (no tree solve). 16, not 4:
+# two planted feet are coupled sideways through the legs and their friction rows converge slowly;
+# with 4 the standing humanoid's feet crept sideways (79 / 99 mm in 1 s at 1 iteration, 8 substeps,
+# growing) and it fell sideways early, with 16 they move 1 / 4 mm (the converged solve's figure).
+# Cost: a body lying on many contacts (16 slots) 235-264 -> 454 us per substep; standing, unchanged.
+CONTACT_SWEEPS = 16
+
 
 # ---------------------------------------------------------------------------------------
 # Small scalar helpers (tuples, no arrays: numba keeps them in registers)
@@ -692,6 +702,11 @@ def _prepare(m, s, h):
         la[k, 0], la[k, 1], la[k, 2] = lax, lay, laz
         la[k, 3], la[k, 4], la[k, 5] = lbx, lby, lbz
 
+    # Foot contacts through the tree: their articulated effective masses (direct solver)
+    s.cbody_n[0] = 0
+    if m.params[P_SOLVER] != 0.0 and s.cbody.shape[0] > 0:
+        _contact_bodies(m, s)
+
 
 # ---------------------------------------------------------------------------------------
 # 2. velocities
@@ -803,6 +818,304 @@ def _warm_start(m, s):
         pz = i0 * s.pair_normal[k, 2] + i1 * s.pair_t1[k, 2] + i2 * s.pair_t2[k, 2]
         _apply(m, s, a, s.pair_ra[k, 0], s.pair_ra[k, 1], s.pair_ra[k, 2], px, py, pz, -1.0)
         _apply(m, s, b, s.pair_rb[k, 0], s.pair_rb[k, 1], s.pair_rb[k, 2], px, py, pz, 1.0)
+
+
+# ---------------------------------------------------------------------------------------
+# Foot contacts through the articulated tree
+# ---------------------------------------------------------------------------------------
+#
+# Why: a contact row whose effective mass is its own body's (1/m + r x d . I^-1 r x d) stops
+# the foot, then the exact tree joint solve that follows shares that stop with the whole
+# body (the foot is held by the leg, the leg by the trunk), so one pass removes only a part
+# of a planted foot's slip (0.42 m/s mean on the humanoid's lookahead, issue 13), and a
+# light body landing with a heavy one sinks. Here the ground contacts of up to
+# MAX_CONTACT_BODIES bodies ("slots", feet first) are solved against the whole body's
+# response instead:
+#   Phi_kl (6x6) = the velocity (linear, angular) of slot body k for a unit impulse (force
+#   at the centre of mass, torque) on slot body l, through the tree with every joint held:
+#   the body rows of [[M, J^T], [J, C]]^-1, C the servo compliance; read from the
+#   factorization the direct joint solve already made, one solve per unit impulse, each
+#   restricted to the path up from l and back down to the slot bodies (the "needed" nodes).
+# A contact at r on body l with impulse p is the spatial impulse G p, G = [E; [r]x], so the
+# contact-space inverse mass between contacts f (on k) and g (on l) is G_f^T Phi_kl G_g. The
+# contacts are then solved by Gauss-Seidel in contact space (normal, friction cone, spin
+# friction, as the body-only rows), every impulse moving every slot body by Phi, and the
+# pass's impulses are put on the slot bodies; the direct joint solve after them spreads
+# them through the tree to exactly the velocities Phi predicted, provided the velocities
+# the contacts read were joint-consistent: so a direct solve runs before the contacts too.
+
+
+@njit(cache=True)
+def _contact_bodies(m, s):
+    """Slots (bodies with an active ground contact: feet first, then the others, up to the
+    slot count), the needed nodes and Phi."""
+    nb = m.body_inv_mass.shape[0]
+    kmax = s.cbody.shape[0]
+    for b in range(nb):
+        s.body_cslot[b] = -1
+    K = 0
+    for kind in (KIND_FOOT, KIND_GROUND):
+        for f in range(m.feat_body.shape[0]):
+            if s.feat_active[f] == 0:
+                continue
+            b = m.feat_body[f]
+            if m.body_contact_kind[b] != kind or m.body_inv_mass[b] == 0.0 or s.body_cslot[b] >= 0:
+                continue
+            if K >= kmax:
+                break
+            s.body_cslot[b] = K
+            s.cbody[K] = b
+            K += 1
+    s.cbody_n[0] = K
+    if K == 0:
+        return
+    # need[i] = 1 + the highest slot in node i's subtree (0: none): Phi is symmetric,
+    # Phi_lk = Phi_kl^T, so column l needs only the nodes above slots k >= l
+    nnode = m.node_parent.shape[0]
+    need = s.node_need
+    for i in range(nnode):
+        need[i] = 0
+    for k in range(K):
+        i = s.cbody[k]
+        while i >= 0 and need[i] < k + 1:
+            need[i] = k + 1
+            i = m.node_parent[i]
+    cnt = 0
+    for q in range(m.node_order.shape[0]):
+        i = m.node_order[q]
+        if need[i] != 0:
+            s.need_order[cnt] = i
+            cnt += 1
+    s.need_n[0] = cnt
+    # Phi, column by column: a unit impulse e on slot body l
+    x = s.node_x
+    z = s.node_z
+    phi = s.cbody_phi
+    for l in range(K):
+        c = s.cbody[l]
+        for e in range(6):
+            for q in range(cnt):
+                i = s.need_order[q]
+                if need[i] <= l:
+                    continue
+                for r in range(6):
+                    x[i, r] = 0.0
+                    z[i, r] = 0.0
+            x[c, e] = 1.0
+            # forward elimination, only along the path up from c (elsewhere x stays 0)
+            i = c
+            while True:
+                d = s.node_dim[i]
+                Di = s.node_Dinv[i]
+                for r in range(d):
+                    acc = 0.0
+                    for t in range(d):
+                        acc += Di[r, t] * x[i, t]
+                    z[i, r] = acc
+                p = m.node_parent[i]
+                if p < 0:
+                    break
+                dp = s.node_dim[p]
+                L = s.node_L[i]
+                for cc in range(dp):
+                    acc = 0.0
+                    for t in range(d):
+                        acc += L[t, cc] * x[i, t]
+                    x[p, cc] -= acc
+                i = p
+            # back substitution, root first, over the nodes above slots l..K-1
+            for q in range(cnt):
+                i = s.need_order[q]
+                if need[i] <= l:
+                    continue
+                d = s.node_dim[i]
+                p = m.node_parent[i]
+                if p >= 0:
+                    dp = s.node_dim[p]
+                    L = s.node_L[i]
+                    for r in range(d):
+                        acc = 0.0
+                        for t in range(dp):
+                            acc += L[r, t] * x[p, t]
+                        x[i, r] = z[i, r] - acc
+                else:
+                    for r in range(d):
+                        x[i, r] = z[i, r]
+            for k in range(l, K):
+                b = s.cbody[k]
+                for r in range(6):
+                    phi[k, l, r, e] = x[b, r]
+                    phi[l, k, e, r] = x[b, r]
+    # each contact's own articulated masses: normal, the tangent plane's 2x2 (inverted), spin
+    for f in range(m.feat_body.shape[0]):
+        if s.feat_active[f] == 0:
+            continue
+        k = s.body_cslot[m.feat_body[f]]
+        if k < 0:
+            continue
+        rx, ry, rz = s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2]
+        nx, ny, nz = s.feat_normal[f, 0], s.feat_normal[f, 1], s.feat_normal[f, 2]
+        t1x, t1y, t1z = s.feat_t1[f, 0], s.feat_t1[f, 1], s.feat_t1[f, 2]
+        t2x, t2y, t2z = s.feat_t2[f, 0], s.feat_t2[f, 1], s.feat_t2[f, 2]
+        P = phi[k, k]
+        ann = _phi_form(P, rx, ry, rz, nx, ny, nz, nx, ny, nz)
+        a11 = _phi_form(P, rx, ry, rz, t1x, t1y, t1z, t1x, t1y, t1z)
+        a12 = _phi_form(P, rx, ry, rz, t1x, t1y, t1z, t2x, t2y, t2z)
+        a22 = _phi_form(P, rx, ry, rz, t2x, t2y, t2z, t2x, t2y, t2z)
+        ass = 0.0
+        for r in range(3):
+            nr = nx if r == 0 else (ny if r == 1 else nz)
+            for c in range(3):
+                nc = nx if c == 0 else (ny if c == 1 else nz)
+                ass += nr * P[3 + r, 3 + c] * nc
+        s.feat_amass[f, 0] = 1.0 / ann if ann > 1e-300 else 0.0
+        det = a11 * a22 - a12 * a12
+        if det > 1e-300 * (a11 * a22 + 1e-300):
+            s.feat_amass[f, 1] = a22 / det
+            s.feat_amass[f, 2] = -a12 / det
+            s.feat_amass[f, 3] = a11 / det
+        else:
+            s.feat_amass[f, 1] = 1.0 / a11 if a11 > 1e-300 else 0.0
+            s.feat_amass[f, 2] = 0.0
+            s.feat_amass[f, 3] = 1.0 / a22 if a22 > 1e-300 else 0.0
+        s.feat_amass[f, 4] = 1.0 / ass if ass > 1e-300 else 0.0
+
+
+@njit(cache=True)
+def _phi_form(P, rx, ry, rz, ax, ay, az, bx, by, bz):
+    """(G a)^T P (G b) with G d = (d, r x d): the contact-space inverse mass along a, b."""
+    cax, cay, caz = _cross(rx, ry, rz, ax, ay, az)
+    cbx, cby, cbz = _cross(rx, ry, rz, bx, by, bz)
+    out = 0.0
+    for r in range(6):
+        ga = ax if r == 0 else (ay if r == 1 else (az if r == 2 else (cax if r == 3 else (cay if r == 4 else caz))))
+        row = 0.0
+        for c in range(6):
+            gb = bx if c == 0 else (by if c == 1 else (bz if c == 2 else (cbx if c == 3 else (cby if c == 4 else cbz))))
+            row += P[r, c] * gb
+        out += ga * row
+    return out
+
+
+@njit(cache=True)
+def _slot_impulse(s, K, l, px, py, pz, lx, ly, lz):
+    """Every slot body's velocity after a spatial impulse (p, L) on slot body l."""
+    phi = s.cbody_phi
+    u = s.cbody_vel
+    for k in range(K):
+        P = phi[k, l]
+        for r in range(6):
+            u[k, r] += (P[r, 0] * px + P[r, 1] * py + P[r, 2] * pz + P[r, 3] * lx + P[r, 4] * ly
+                        + P[r, 5] * lz)
+
+
+@njit(cache=True)
+def _slot_point_vel(s, k, rx, ry, rz):
+    u = s.cbody_vel
+    cx, cy, cz = _cross(u[k, 3], u[k, 4], u[k, 5], rx, ry, rz)
+    return u[k, 0] + cx, u[k, 1] + cy, u[k, 2] + cz
+
+
+@njit(cache=True)
+def _solve_slot_contacts(m, s, h, use_bias):
+    """The slot bodies' ground contacts, Gauss-Seidel in contact space (see above), then the
+    pass's impulses on the foot bodies (the direct joint solve after spreads them)."""
+    K = s.cbody_n[0]
+    max_push = m.params[P_MAX_PUSH]
+    for k in range(K):
+        b = s.cbody[k]
+        for c in range(3):
+            s.cbody_vel[k, c] = s.body_linvel[b, c]
+            s.cbody_vel[k, 3 + c] = s.body_angvel[b, c]
+    for f in range(m.feat_body.shape[0]):
+        for c in range(4):
+            s.feat_imp0[f, c] = s.feat_imp[f, c]
+    for _sweep in range(CONTACT_SWEEPS):
+        for f in range(m.feat_body.shape[0]):
+            if s.feat_active[f] == 0:
+                continue
+            b = m.feat_body[f]
+            k = s.body_cslot[b]
+            if k < 0:
+                continue
+            if m.body_contact_kind[b] == KIND_FOOT:
+                hz, zeta, mu, spin_mu = (m.params[P_FOOT_HZ], m.params[P_FOOT_ZETA], m.params[P_FOOT_MU],
+                                         m.params[P_FOOT_SPIN_MU])
+            else:
+                hz, zeta, mu, spin_mu = (m.params[P_GROUND_HZ], m.params[P_GROUND_ZETA], m.params[P_GROUND_MU],
+                                         m.params[P_GROUND_SPIN_MU])
+            rx, ry, rz = s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2]
+            nx, ny, nz = s.feat_normal[f, 0], s.feat_normal[f, 1], s.feat_normal[f, 2]
+            px, py, pz = _world_point(m, s, b, m.feat_local[f, 0], m.feat_local[f, 1], m.feat_local[f, 2])
+            rad = m.feat_radius[f]
+            sep = s.feat_sep[f] + ((px - rad * nx - s.feat_point[f, 0]) * nx
+                                   + (py - rad * ny - s.feat_point[f, 1]) * ny
+                                   + (pz - rad * nz - s.feat_point[f, 2]) * nz)
+            vx, vy, vz = _slot_point_vel(s, k, rx, ry, rz)
+            vn = vx * nx + vy * ny + vz * nz
+            new, dn = _contact_normal_impulse(s.feat_amass[f, 0], vn, sep, s.feat_imp[f, 0], h, use_bias, hz,
+                                              zeta, max_push)
+            s.feat_imp[f, 0] = new
+            qx, qy, qz = dn * nx, dn * ny, dn * nz
+            tx, ty, tz = _cross(rx, ry, rz, qx, qy, qz)
+            _slot_impulse(s, K, k, qx, qy, qz, tx, ty, tz)
+            # Coulomb friction: the tangent 2x2 solved together, clamped to the cone
+            vx, vy, vz = _slot_point_vel(s, k, rx, ry, rz)
+            t1x, t1y, t1z = s.feat_t1[f, 0], s.feat_t1[f, 1], s.feat_t1[f, 2]
+            t2x, t2y, t2z = s.feat_t2[f, 0], s.feat_t2[f, 1], s.feat_t2[f, 2]
+            v1 = vx * t1x + vy * t1y + vz * t1z
+            v2 = vx * t2x + vy * t2y + vz * t2z
+            o1, o2 = s.feat_imp[f, 1], s.feat_imp[f, 2]
+            i11, i12, i22 = s.feat_amass[f, 1], s.feat_amass[f, 2], s.feat_amass[f, 3]
+            n1 = o1 - (i11 * v1 + i12 * v2)
+            n2 = o2 - (i12 * v1 + i22 * v2)
+            lim = mu * new
+            nrm = math.sqrt(n1 * n1 + n2 * n2)
+            if nrm > lim:
+                # sliding: the impulse opposes the slip (maximum dissipation), so the update
+                # takes the tangent plane's mean mass, not the 2x2 that turns it off the slip
+                # (measured: a box sliding at 2 m/s went 4% too far with the 2x2 clamped)
+                iso = 2.0 * (i11 * i22 - i12 * i12) / (i11 + i22) if i11 + i22 > 0.0 else 0.0
+                n1 = o1 - iso * v1
+                n2 = o2 - iso * v2
+                nrm = math.sqrt(n1 * n1 + n2 * n2)
+            if nrm > lim:
+                sc = lim / nrm if nrm > 0.0 else 0.0
+                n1 *= sc
+                n2 *= sc
+            s.feat_imp[f, 1] = n1
+            s.feat_imp[f, 2] = n2
+            d1, d2 = n1 - o1, n2 - o2
+            qx, qy, qz = d1 * t1x + d2 * t2x, d1 * t1y + d2 * t2y, d1 * t1z + d2 * t2z
+            tx, ty, tz = _cross(rx, ry, rz, qx, qy, qz)
+            _slot_impulse(s, K, k, qx, qy, qz, tx, ty, tz)
+            # rotational friction about the normal
+            if spin_mu > 0.0:
+                u = s.cbody_vel
+                wn = u[k, 3] * nx + u[k, 4] * ny + u[k, 5] * nz
+                o3 = s.feat_imp[f, 3]
+                n3 = o3 - s.feat_amass[f, 4] * wn
+                lim3 = spin_mu * m.feat_spin_radius[f] * new
+                n3 = min(max(n3, -lim3), lim3)
+                s.feat_imp[f, 3] = n3
+                d3 = n3 - o3
+                _slot_impulse(s, K, k, 0.0, 0.0, 0.0, d3 * nx, d3 * ny, d3 * nz)
+    # the pass's impulses, on the slot bodies alone
+    for f in range(m.feat_body.shape[0]):
+        if s.feat_active[f] == 0:
+            continue
+        b = m.feat_body[f]
+        if s.body_cslot[b] < 0:
+            continue
+        d0 = s.feat_imp[f, 0] - s.feat_imp0[f, 0]
+        d1 = s.feat_imp[f, 1] - s.feat_imp0[f, 1]
+        d2 = s.feat_imp[f, 2] - s.feat_imp0[f, 2]
+        d3 = s.feat_imp[f, 3] - s.feat_imp0[f, 3]
+        px = d0 * s.feat_normal[f, 0] + d1 * s.feat_t1[f, 0] + d2 * s.feat_t2[f, 0]
+        py = d0 * s.feat_normal[f, 1] + d1 * s.feat_t1[f, 1] + d2 * s.feat_t2[f, 1]
+        pz = d0 * s.feat_normal[f, 2] + d1 * s.feat_t1[f, 2] + d2 * s.feat_t2[f, 2]
+        _apply(m, s, b, s.feat_r[f, 0], s.feat_r[f, 1], s.feat_r[f, 2], px, py, pz, 1.0)
+        _apply_ang(s, b, d3 * s.feat_normal[f, 0], d3 * s.feat_normal[f, 1], d3 * s.feat_normal[f, 2], 1.0)
 
 
 # ---------------------------------------------------------------------------------------
@@ -1216,10 +1529,15 @@ def _contact_normal_impulse(mass_n, vn, sep, acc, h, use_bias, hz, zeta, max_pus
 @njit(cache=True)
 def _solve_contacts(m, s, h, use_bias):
     max_push = m.params[P_MAX_PUSH]
+    articulated = s.cbody_n[0] > 0
+    if articulated:
+        _solve_slot_contacts(m, s, h, use_bias)
     for f in range(m.feat_body.shape[0]):
         if s.feat_active[f] == 0:
             continue
         b = m.feat_body[f]
+        if articulated and s.body_cslot[b] >= 0:
+            continue          # solved through the tree above
         foot = m.body_contact_kind[b] == KIND_FOOT
         if foot:
             hz, zeta, mu, spin_mu = (m.params[P_FOOT_HZ], m.params[P_FOOT_ZETA], m.params[P_FOOT_MU],
@@ -1409,14 +1727,20 @@ def step_kernel(m, s, dt, nsub, niter, nproject, nsteps):
             _integrate_velocities(m, s, h)
             _warm_start(m, s)
             direct = m.params[P_SOLVER] != 0.0
+            # foot contacts solved through the tree read joint-consistent velocities
+            articulated = direct and s.cbody_n[0] > 0
             for _it in range(niter):
                 _solve_joints(m, s, h, True, not direct)
+                if articulated:
+                    _solve_points_direct(m, s, h, True)
                 _solve_contacts(m, s, h, True)
                 if direct:
                     _solve_points_direct(m, s, h, True)
             _integrate_positions(m, s, h)
             for _it in range(niter):
                 _solve_joints(m, s, h, False, not direct)
+                if articulated:
+                    _solve_points_direct(m, s, h, False)
                 _solve_contacts(m, s, h, False)
                 if direct:
                     _solve_points_direct(m, s, h, False)

@@ -90,6 +90,17 @@ class StateArrays(NamedTuple):
     node_work: np.ndarray
     node_x: np.ndarray
     node_z: np.ndarray
+    # ground contacts through the tree (direct solver): k = min(contact bodies, MAX_CONTACT_BODIES)
+    cbody: np.ndarray            # (k,) int32 body of each contact slot
+    cbody_n: np.ndarray          # (1,) int32 slots in use this substep
+    body_cslot: np.ndarray       # (n,) int32 slot of each body, -1: none
+    cbody_phi: np.ndarray        # (k, k, 6, 6) articulated inverse inertia between slots
+    cbody_vel: np.ndarray        # (k, 6) slot bodies' velocity (lin, ang) during the solve
+    node_need: np.ndarray        # (n + j,) int32 1 + the highest slot in the node's subtree, 0: none
+    need_order: np.ndarray       # (n + j,) int32 those nodes, root first; count in need_n
+    need_n: np.ndarray           # (1,) int32
+    feat_amass: np.ndarray       # (f, 5) articulated masses: normal, 2x2 tangent inverse, spin
+    feat_imp0: np.ndarray        # (f, 4) accumulated impulses when a contact pass began
     clock: np.ndarray
 
 
@@ -102,6 +113,7 @@ class PhysicsState:
     def __init__(self, model: PhysicsModel) -> None:
         n, j = model.nbody, model.njoint
         f, p = model.feat_body.shape[0], model.pair_a.shape[0]
+        k = min(int(np.count_nonzero(np.asarray(model.body_contact_kind) != K.KIND_NONE)), K.MAX_CONTACT_BODIES)
         z = np.zeros
         self.model = model
         self.arrays = StateArrays(
@@ -122,7 +134,11 @@ class PhysicsState:
             pair_mass=z((p, 3)), pair_imp=z((p, 3)),
             node_dim=np.full(n + j, 3, np.int32), joint_servo_direct=z(j, np.int32),
             node_D=z((n + j, 6, 6)), node_Dinv=z((n + j, 6, 6)), node_L=z((n + j, 6, 6)), node_H=z((6, 6)),
-            node_work=z((6, 12)), node_x=z((n + j, 6)), node_z=z((n + j, 6)), clock=z(2),
+            node_work=z((6, 12)), node_x=z((n + j, 6)), node_z=z((n + j, 6)),
+            cbody=z(k, np.int32), cbody_n=z(1, np.int32), body_cslot=np.full(n, -1, np.int32),
+            cbody_phi=z((k, k, 6, 6)), cbody_vel=z((k, 6)), node_need=z(n + j, np.int32),
+            need_order=z(n + j, np.int32), need_n=z(1, np.int32), feat_amass=z((f, 5)), feat_imp0=z((f, 4)),
+            clock=z(2),
         )
 
     def __getattr__(self, name):
