@@ -12,7 +12,8 @@ touched the ground when the hit landed (its surface within 5 mm), while it carri
 v + w x r at the point on the surface nearest the ground). Printed per creature and
 simulation: the median and mean of the samples, their p95, and the share of samples where
 friction was saturated (|tangential impulse| >= 0.999 mu normal impulse: the push exceeds
-friction there, a slide is the right answer) and the mean slip where it was and where not. Drift: Simulation 1's root, the ground-plane
+friction there, a slide is the right answer) and the mean slip where it was and where not.
+Drift: Simulation 1's root, the ground-plane
 component perpendicular to the push, largest |.| over the lookahead; and along the push.
 """
 
