@@ -112,6 +112,9 @@ FLOAT_FIELDS = (
     ("b_extent", 3),       # (nbody, 3) half extents of each body's box (centred on its origin, body frame), m
     ("b_floor", 1),        # (nbody,) lowest a box corner may go, over the ground: min(0, its rest lowest corner), m
     ("b_ground_r", 1),     # (nbody,) radius about the joint holding the whole box (|joint offset| + |extent|), m
+    ("lp_ref_dir", 3),     # (nlp, 3) the rebuild's reference chord direction in the frame of the particle's
+                           # parent body; zero: the rest chord carried by the spine (plan.py ``_rebuild_refs``)
+    ("lp_ref_rot", 4),     # (nlp, 4) the body's rotation in that frame with its chord on lp_ref_dir
 )
 FLOAT_NAMES = tuple(n for n, _ in FLOAT_FIELDS)
 NINT = len(INT_FIELDS)
@@ -548,6 +551,7 @@ def unpack(pi, pf, pf3, pf4):
         _f(pi, pf, 35), _f(pi, pf, 36), _f(pi, pf, 37), _f(pi, pf, 38), _f(pi, pf, 39),
         _f(pi, pf, 40), _f(pi, pf, 41), _f(pi, pf, 42), _f(pi, pf, 43), _f(pi, pf, 44),
         _f(pi, pf, 45), _f(pi, pf3, 46), _f(pi, pf3, 47), _f(pi, pf, 48), _f(pi, pf, 49),
+        _f(pi, pf3, 50), _f(pi, pf4, 51),
     )
 
 
@@ -1643,10 +1647,18 @@ def _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos,
                                 vsub(v3(lp_pos, P.lp_c1[i]), v3(lp_pos, i))), carried)
         else:
             c1 = P.lp_c1[i]
-            e1r = vsub(v3(lp_rest, c1), v3(lp_rest, i))
             e1p = vsub(v3(lp_pos, c1), v3(lp_pos, i))
-            swing = qbetween(e1r, e1p)
-            rot = qmul(swing, rest_rot)
+            dref = v3(P.lp_ref_dir, i)
+            if vdot(dref, dref) > 0.5:
+                # carried by the parent and turned from the reference chord, whose
+                # opposite is a pose limbs do not take (plan.py ``_rebuild_refs``)
+                qref = q4(out_rot, P.lp_body[P.lp_parent[i]])
+                rot = qmul(qbetween(qrot(qref, dref), e1p), qmul(qref, q4(P.lp_ref_rot, i)))
+                swing = qmul(rot, qconj(rest_rot))
+            else:
+                e1r = vsub(v3(lp_rest, c1), v3(lp_rest, i))
+                swing = qbetween(e1r, e1p)
+                rot = qmul(swing, rest_rot)
             if mode == 1:
                 # Cross-constraints fix the frame: turn about the first axis until the
                 # second axis lies in its posed plane.
@@ -1894,7 +1906,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 50
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 52
 
 
 _check_layout()

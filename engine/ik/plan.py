@@ -71,6 +71,9 @@ class IKParams:
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
     ground: bool = False          # every body's box kept above the ground plane passed to the solve (character
                                   # space; z = 0 by default), down to its floor ``body_floor`` (issues 12/16)
+    parent_twist: bool = True     # limb bodies below a limb's root are rebuilt from their parent's frame through a
+                                  # chord bent 45 degrees into their bend, so their one ill-defined chord is a joint
+                                  # bent 135 degrees against its bend, not the rest chord reversed (``_rebuild_refs``)
 
     def vector(self) -> np.ndarray:
         v = np.zeros(K.NPARAM)
@@ -162,6 +165,88 @@ def _aim_via(lp, ag_pivot, ag_goal, goal_lp, goal_lpj, rr_rot) -> np.ndarray:
                 out[g] = w / np.linalg.norm(w)
                 break
     return out
+
+
+#: A joint folded further than this at rest (cosine of its bend; 120 degrees) keeps the
+#: paper's reference: the IK folds such a joint through its fold line and opens it on the
+#: other side (the mantis's raptorial claw, folded 172 degrees at rest, opened straight to
+#: strike), sweeping more than half a turn in its bend plane, so any reference direction
+#: in that plane is crossed (measured: raptortibia 0.8-2.1 rad in one frame over 9 mantis
+#: cells with it).
+FOLDED_COS = -0.5
+
+
+def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(nlp, 3) reference chord directions and (nlp, 4) reference rotations of the limb
+    rebuild (``_limb_rebuild``), each in the frame of the particle's parent body.
+
+    The rebuild turns a body from a reference rotation by the shortest arc that takes the
+    reference chord to the posed chord. The paper's reference is the rest pose carried by
+    the spine, so a body is ill-defined where its chord points opposite its rest chord, and
+    that is where a hanging forearm goes when the hand comes to the mouth or over the head:
+    the body turned over between two frames (longspine's hand_to_mouth: 1.85 rad). No
+    reference is smooth for every chord (a rotation taking d to each p, continuous in p,
+    does not exist on the whole sphere), and blending two references is not continuous
+    either (near one's singular chord their twists differ by any angle), so each body gets
+    one reference direction d, fixed at plan time, whose opposite is a pose limbs do not
+    take: a body below its limb's root is carried by its parent (a joint's twist is its
+    own, as an elbow or a knee has it), and d is its chord bent 45 degrees from straight
+    into the side the joint bends (its rest bend; for a joint straight at rest, the side
+    the bend hint bends it). Straight and fully folded are 45 and 135 degrees from d, a
+    bend in the plane of d is a turn about the joint's hinge axis with no twist, and the
+    singular pose is the joint bent 135 degrees against its own bend.
+
+    The reference rotation is the rest rotation turned by the shortest arc from the rest
+    chord to d, so the rest pose is exact. Left to the paper's rule (a zero direction):
+    limb roots (their chord is set by the aim, ``_aim_via``, whose own singular direction
+    is behind; a root reference through forward was tried and changed nothing there: the
+    root flips left in the grid are particles jumping, not the rebuild), joints folded
+    past ``FOLDED_COS`` at rest, tips and rigid bodies."""
+    n = len(lp)
+    ref_dir = np.zeros((n, 3))
+    ref_rot = np.zeros((n, 4))
+    ref_rot[:, 0] = 1.0
+    if not on:
+        return ref_dir, ref_rot
+    for i, P in enumerate(lp):
+        if P["mode"] not in (0, 1) or P["c1"] < 0:
+            continue
+        b, s = P["body"], P["attach"]
+        qa = rr_rot[s]
+        r = _qrot(qa, lp[P["c1"]]["local"] - P["local"])      # rest chord, root-relative
+        nr = float(np.linalg.norm(r))
+        if nr < 1e-9:
+            continue
+        r = r / nr
+        if P["parent"] < 0:
+            continue
+        ref = lp[P["parent"]]["body"]
+        sv = _qrot(qa, P["local"] - lp[P["parent"]]["local"])   # the parent's bone
+        ns = float(np.linalg.norm(sv))
+        if ns < 1e-9:
+            continue
+        sh = sv / ns
+        if float(r @ sh) < FOLDED_COS:
+            continue
+        h = r - (r @ sh) * sh
+        if float(np.linalg.norm(h)) < 0.05:
+            # straight (or folded flat) at rest: the side the bend hint bends it to
+            # (the joint moves forward for legs, back otherwise: its child bends the
+            # other way)
+            leg = bool(np.any(feet[b:int(c.body_subtree_end[b])]))
+            hint = np.array([1.0 if leg else -1.0, 0.0, 0.0])
+            h = -(hint - (hint @ sh) * sh)
+            if float(np.linalg.norm(h)) < 0.3:
+                h = np.array([0.0, 0.0, 1.0]) - sh[2] * sh
+        h = h / np.linalg.norm(h)
+        d = (sh + h) / math.sqrt(2.0)
+        qr_inv = _qconj(rr_rot[ref])
+        d_ref = _qrot(qr_inv, d)
+        r_ref = _qrot(qr_inv, r)
+        rel = _qmul(qr_inv, rr_rot[b])
+        ref_dir[i] = d_ref / np.linalg.norm(d_ref)
+        ref_rot[i] = _qmul(np.array(K.qbetween(tuple(r_ref), tuple(ref_dir[i]))), rel)
+    return ref_dir, ref_rot
 
 
 def _param_vector(prm: IKParams, splayed_forks: int):
@@ -736,6 +821,8 @@ def _build(c, goals: list[int], prm: IKParams):
             P["c1"] = lp_of[kids[0]] if kids else -1
             P["c2"] = lp_of[kids[1]] if len(kids) > 1 else -1
 
+    ref_dir, ref_rot = _rebuild_refs(c, lp, rr_rot, feet, prm.parent_twist)
+
     lc_order = sorted(range(len(lc)), key=lambda i: -lc[i]["depth"])
     lc_remap = {old: new for new, old in enumerate(lc_order)}
     lc = [lc[i] for i in lc_order]
@@ -826,6 +913,7 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
         goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
         ag_via=f64(ag_via, 3),
+        lp_ref_dir=f64(ref_dir, 3), lp_ref_rot=f64(ref_rot, 4),
         b_extent=f64(c.body_extent, 3), b_floor=f64(body_floor(c), 1),
         b_ground_r=f64(np.linalg.norm(c.body_joint_offset, axis=1) + np.linalg.norm(c.body_extent, axis=1), 1),
     )

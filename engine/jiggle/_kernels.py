@@ -43,7 +43,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from engine.mathx.quat import quat_between_into, quat_mul_into, quat_rotate_into, quat_rotate_t
+from engine.mathx.quat import (
+    quat_between_into,
+    quat_between_t,
+    quat_from_axis_angle_t,
+    quat_mul_into,
+    quat_mul_t,
+    quat_rotate_into,
+    quat_rotate_t,
+)
 
 #: Largest share of a body's lever its parent's lag may push its tip by (see the kernel).
 PARENT_SHARE = 0.3
@@ -54,6 +62,8 @@ HANDOFF_SHARE = 0.9
 DEVIATION = 0.9
 #: Largest change of a body's deflection in a 60 Hz frame, as a share of its lever.
 RATE = 0.25
+#: A hand-off twist below this (rad, and rad per spring period for its rate) sleeps.
+TWIST_SLEEP = 1e-4
 
 
 @njit(cache=True)
@@ -78,6 +88,7 @@ def jiggle_kernel(
     state_target,       # (n, 3) last rigid target tip
     state_target_vel,   # (n, 3) last rigid target tip velocity
     state_active,       # (n,) bool: simulated last frame
+    state_twist,        # (n, 2) twist about the lever kept from a hand-off, rad, and its rate, rad/s
     chain_joint,        # (n, 3) scratch: rigid-chain joint position of each passive body
     chain_rot,          # (n, 4) scratch: rigid-chain rotation of each passive body
     dt,                 # step, s (> 0)
@@ -91,6 +102,7 @@ def jiggle_kernel(
     target = np.empty(3)
     turn = np.empty(4)
     final_rot = np.empty(4)
+    tmp4 = np.empty(4)
     offset = np.empty(3)
     tmp = np.empty(3)
     tmp2 = np.empty(3)
@@ -132,6 +144,8 @@ def jiggle_kernel(
 
         if not simulate or jig_omega[i] <= 0.0:
             state_active[i] = False
+            state_twist[i, 0] = 0.0
+            state_twist[i, 1] = 0.0
             for k in range(4):
                 final_rot[k] = rigid_rot[k]
         else:
@@ -155,6 +169,12 @@ def jiggle_kernel(
                     state_err_vel[i, k] = 0.0
                     state_target[i, k] = target[k]
                     state_target_vel[i, k] = 0.0
+                # The lever alone says nothing of the turn about it: the driven pose's twist
+                # about its lever, over the shortest swing from the rigid lever, is kept
+                # and springs back to zero like the deflection (else a body the IK twisted
+                # turned back in one frame as a clip ended).
+                state_twist[i, 0] = _handoff_twist(world_rot[i], rigid_rot, jig_lever[i], lever_rigid)
+                state_twist[i, 1] = 0.0
                 state_active[i] = True
             w = jig_omega[i]
             z = jig_zeta[i]
@@ -225,6 +245,22 @@ def jiggle_kernel(
                 lever_sim[k] = lever_rigid[k] + dscale * lever_sim[k]
             quat_between_into(lever_rigid, lever_sim, turn)
             quat_mul_into(turn, rigid_rot, final_rot)
+            tw = state_twist[i, 0]
+            if tw != 0.0:
+                twv = (state_twist[i, 1] - dt * w * w * tw) / denom
+                tw += dt * twv
+                if abs(tw) < TWIST_SLEEP and abs(twv) < TWIST_SLEEP * w:
+                    tw = 0.0
+                    twv = 0.0
+                state_twist[i, 0] = tw
+                state_twist[i, 1] = twv
+                if tw != 0.0:
+                    tq = quat_from_axis_angle_t((lever_sim[0], lever_sim[1], lever_sim[2]), tw)
+                    for k in range(4):
+                        turn[k] = tq[k]
+                    quat_mul_into(turn, final_rot, tmp4)
+                    for k in range(4):
+                        final_rot[k] = tmp4[k]
             # The ground: a passive body does not swing into it (a tentacle or a tail lying
             # on the ground rests on it). Its box's lowest corner is lifted onto the plane by
             # turning the body about its joint, and the spring takes the lifted tip as its
@@ -314,3 +350,24 @@ def quat_rotate_t4(q, vx, vy, vz):
     ty = 2.0 * (z * vx - x * vz)
     tz = 2.0 * (x * vy - y * vx)
     return (vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz), vz + w * tz + (x * ty - y * tx))
+
+
+@njit(cache=True)
+def _handoff_twist(last_rot, rigid_rot, lever, lever_rigid):
+    """The signed angle (rad, in (-pi, pi]) of ``last_rot`` about its own lever beyond the
+    shortest swing that takes the rigid lever ``lever_rigid`` (world) there: what a
+    lever-only spring would drop when a body turns passive."""
+    lx, ly, lz = quat_rotate_t(last_rot, lever)
+    nl = np.sqrt(lx * lx + ly * ly + lz * lz)
+    if nl < 1e-12:
+        return 0.0
+    sr = quat_mul_t(quat_between_t(lever_rigid, (lx, ly, lz)), rigid_rot)
+    # residual = last * conj(swing * rigid): a turn about the lever
+    r = quat_mul_t(last_rot, (sr[0], -sr[1], -sr[2], -sr[3]))
+    along = (r[1] * lx + r[2] * ly + r[3] * lz) / nl
+    ang = 2.0 * np.arctan2(along, r[0])
+    if ang > np.pi:
+        ang -= 2.0 * np.pi
+    elif ang <= -np.pi:
+        ang += 2.0 * np.pi
+    return ang
