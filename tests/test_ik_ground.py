@@ -58,7 +58,7 @@ def test_ground_off_reproduces_the_solver_from_before():
     """The canned scene solved with ``ground=False`` gives the poses the solver gave before
     the constraint existed (written by tests/ik_ground_scene.py on that checkout)."""
     ref = np.load(REFERENCE)
-    got = scene.solve_scene(IKParams(ground=False, aim_via=False))
+    got = scene.solve_scene(IKParams(ground=False, aim_via=False, parent_twist=False))
     assert set(got) == set(ref.files)
     for k, v in got.items():
         assert np.max(np.abs(v - ref[k])) <= 1e-12, k

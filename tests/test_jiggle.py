@@ -200,6 +200,42 @@ def test_body_becoming_passive_starts_where_it_was(creature):
     assert 0.0 < moved < 0.5 * rest_gap
 
 
+def _angle(a, b) -> float:
+    return float(2.0 * np.arccos(min(1.0, abs(float(np.dot(a, b))))))
+
+
+def test_body_becoming_passive_keeps_its_twist_and_springs_it_back(creature):
+    """The lever alone does not say how a body is turned about it: a tail segment the
+    animation (or the IK) twisted 0.8 rad about its own lever, let go of, used to turn
+    back in one frame (a 0.8 rad pop as every clip ended). The twist is kept at the
+    hand-off and springs back to zero like the deflection: one frame later it has moved
+    a little, and within two seconds it is at rest."""
+    rig = JiggleRig.for_creature(creature)
+    state = JiggleState(creature.nbody)
+    pos = np.array(creature.body_rest_pos, dtype=float)
+    rot = np.array(creature.body_rest_rot, dtype=float)
+    driven = np.ones(creature.nbody, np.bool_)
+    tail = creature.body("tail1")
+    lever = quat_rotate(rot[tail], rig.lever[tail])
+    twist = quat_from_axis_angle(lever / np.linalg.norm(lever), 0.8)
+    rot[tail] = quat_mul(twist, rot[tail])
+    before = rot[tail].copy()
+    for name in ("tail1", "tail2", "tail3"):
+        driven[creature.body(name)] = False
+    jiggle_step(rig, state, driven, pos, rot, 1 / 60)
+    first = _angle(rot[tail], before)
+    assert first < 0.1, f"turned {first:.3f} rad in the hand-off frame"
+    np.testing.assert_allclose(np.linalg.norm(rot[tail]), 1.0, atol=1e-12)
+    turns = [first]
+    for _ in range(120):
+        prev = rot[tail].copy()
+        jiggle_step(rig, state, driven, pos, rot, 1 / 60)
+        turns.append(_angle(rot[tail], prev))
+    assert max(turns) < 0.1, f"largest turn per frame {max(turns):.3f} rad"
+    assert _angle(rot[tail], creature.body_rest_rot[tail]) < 1e-6
+    assert state.twist[tail, 0] == 0.0   # asleep: exactly at rest
+
+
 def test_invalid_input(creature):
     rig = JiggleRig.for_creature(creature)
     state = JiggleState(creature.nbody)

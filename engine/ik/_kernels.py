@@ -1682,6 +1682,15 @@ def _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos,
                         ang *= smoothstep((sin_lo - 0.05) / 0.15)
                         rot = qmul(qaxis_angle(ax, ang), rot)
         gi = P.lp_goal[i]
+        if mode == 0 and P.lp_body[P.lp_c1[i]] == b:
+            # A leaf held at its origin by its tip particle: its chord is short beside the
+            # limb, so as a fading goal lets the tip go a millimetre of the wrist swings it
+            # through a large angle. It turns with the goal's weight from the pose its
+            # parent carries it in (where the clip and Jiggles leave it) to its chord.
+            wp = min(max(goal_pos_w[b], 0.0), 1.0)
+            if wp < 1.0:
+                carried = qmul(q4(out_rot, P.b_parent[b]), q4(P.b_local_rot, b))
+                rot = qslerp(carried, qnormalize(rot), wp)
         if gi >= 0:
             wr = min(max(goal_rot_w[b], 0.0), 1.0)
             if wr > 0.0:
