@@ -236,6 +236,36 @@ def test_body_becoming_passive_keeps_its_twist_and_springs_it_back(creature):
     assert state.twist[tail, 0] == 0.0   # asleep: exactly at rest
 
 
+def test_eyes_ride_rigidly_in_their_heads():
+    """An eye has no lever to swing on: under a head that whips back and forth and stops
+    dead, the humanoid's eyes keep their rest pose relative to the head exactly (as a
+    stiff 8 Hz spring each swung 0.59 rad in the frame the head stopped in pick_fruit)."""
+    import engine
+    from engine.paths import LIBRARY_CREATURES
+
+    c = engine.load_creature(LIBRARY_CREATURES / "humanoid.yaml")
+    rig = JiggleRig.for_creature(c)
+    state = JiggleState(c.nbody)
+    pos = np.array(c.body_rest_pos, dtype=float)
+    rot = np.array(c.body_rest_rot, dtype=float)
+    driven = np.ones(c.nbody, np.bool_)
+    eyes = [c.body("eye_l"), c.body("eye_r")]
+    head = c.body("head")
+    for e in eyes:
+        driven[e] = False
+    rest_rel = [quat_mul(np.array([c.body_rest_rot[head][0], *(-c.body_rest_rot[head][1:])]), c.body_rest_rot[e])
+                for e in eyes]
+    worst = 0.0
+    for k in range(60):
+        ang = 0.9 * np.sin(0.5 * k) if k < 30 else 0.9 * np.sin(15.0)
+        rot[head] = quat_mul(quat_from_axis_angle(np.array([0.0, 0.0, 1.0]), ang), c.body_rest_rot[head])
+        jiggle_step(rig, state, driven, pos, rot, 1 / 60)
+        hinv = np.array([rot[head][0], *(-rot[head][1:])])
+        for e, rel in zip(eyes, rest_rel, strict=True):
+            worst = max(worst, _angle(quat_mul(hinv, rot[e]), rel))
+    assert worst < 1e-6, worst   # arccos of a dot product within rounding of 1
+
+
 def test_invalid_input(creature):
     rig = JiggleRig.for_creature(creature)
     state = JiggleState(creature.nbody)

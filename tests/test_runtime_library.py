@@ -159,7 +159,7 @@ def _params(keys: list[str], name_of) -> list:
 _known(IK_ARC, "rotation_pop", ""
        "elephant crouch 0.819; "
        "forkstrider hand_to_mouth 2.263; "
-       "humanoid pick_fruit 0.519; "
+       ""
        "inchworm crouch 0.668; kangaroo pound_ground 0.532; "
        "longspine hand_to_mouth 2.445; octopus eat_fruit 2.174; "
        "octopus hand_to_mouth 1.515; octopus hold_platter 0.910; prehensile perform 3.012; "

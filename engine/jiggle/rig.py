@@ -10,8 +10,12 @@ heuristic; ``JiggleState`` holds the per-frame arrays; ``jiggle_step`` runs the 
 
 The flexibility heuristic (frequency f in Hz, damping ratio z):
 - by capability: ears, tails, wings and details are floppy (f 1.6 to 2.5 Hz, z 0.75);
-  limbs, graspers, feet, heads and mouths moderate (3 to 5 Hz, z 0.9); eyes and spikes
-  stiff (8 Hz, z 1.0); spine bodies 3 Hz, z 0.9;
+  limbs, graspers, feet, heads and mouths moderate (3 to 5 Hz, z 0.9); spikes stiff
+  (8 Hz, z 1.0); spine bodies 3 Hz, z 0.9; eyes do not lag at all (f 0: carried rigidly
+  by their head). An eye sits in a socket: it has no lever to swing on, and as a stiff
+  spring its tiny lever rang at every kink of the head's motion (the humanoid's
+  ``pick_fruit``: the head stops dead from 9.6 rad/s, and each eye swung 0.59 rad in
+  that frame, a flip in the validation grid);
 - by size: like a pendulum, longer levers swing slower: f scales with sqrt(0.25 m / L),
   clamped to [0.4, 2.5] times the capability's frequency, so a mouse twitches and a giant
   sways;
@@ -34,7 +38,7 @@ from engine.model.creature import Creature
 
 # (capability bit, frequency Hz, damping ratio), first match wins.
 _CAP_FLEX = (
-    (EYE, 8.0, 1.0),
+    (EYE, 0.0, 1.0),      # rigid in its socket (see the module note)
     (SPIKE, 8.0, 1.0),
     (EAR, 2.2, 0.75),
     (WING, 2.0, 0.75),
