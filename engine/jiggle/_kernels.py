@@ -62,6 +62,9 @@ HANDOFF_SHARE = 0.9
 DEVIATION = 0.9
 #: Largest change of a body's deflection in a 60 Hz frame, as a share of its lever.
 RATE = 0.25
+#: Largest change of a hand-off twist in a 60 Hz frame, rad (under the validation grid's
+#: 0.25 rad/frame warning).
+TWIST_RATE = 0.15
 #: A hand-off twist below this (rad, and rad per spring period for its rate) sleeps.
 TWIST_SLEEP = 1e-4
 
@@ -248,6 +251,11 @@ def jiggle_kernel(
             tw = state_twist[i, 0]
             if tw != 0.0:
                 twv = (state_twist[i, 1] - dt * w * w * tw) / denom
+                # at most TWIST_RATE per 1/60 s, as the deflection's RATE: a stiff short
+                # body (a jaw at 12 Hz) handed a whole radian would return it in 3 frames
+                most = TWIST_RATE * dt * 60.0
+                if abs(dt * twv) > most:
+                    twv = most / dt if twv > 0.0 else -most / dt
                 tw += dt * twv
                 if abs(tw) < TWIST_SLEEP and abs(twv) < TWIST_SLEEP * w:
                     tw = 0.0
