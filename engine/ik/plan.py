@@ -201,7 +201,11 @@ def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray
     limb roots (their chord is set by the aim, ``_aim_via``, whose own singular direction
     is behind; a root reference through forward was tried and changed nothing there: the
     root flips left in the grid are particles jumping, not the rebuild), joints folded
-    past ``FOLDED_COS`` at rest, tips and rigid bodies."""
+    past ``FOLDED_COS`` at rest, rigid bodies, and leaves held at their origin by a tip
+    particle (a hand with a position goal: its chord is the few millimetres from its joint
+    to its origin, and where the wrist particle wanders the parent's frame put it on the
+    new singular chord: a capture's RightHand turned 2.8 rad in one frame as dance's goal
+    faded in)."""
     n = len(lp)
     ref_dir = np.zeros((n, 3))
     ref_rot = np.zeros((n, 4))
@@ -209,7 +213,7 @@ def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray
     if not on:
         return ref_dir, ref_rot
     for i, P in enumerate(lp):
-        if P["mode"] not in (0, 1) or P["c1"] < 0:
+        if P["mode"] not in (0, 1) or P["c1"] < 0 or lp[P["c1"]].get("tip"):
             continue
         b, s = P["body"], P["attach"]
         qa = rr_rot[s]
