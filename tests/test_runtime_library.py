@@ -160,7 +160,7 @@ _known(IK_ARC, "rotation_pop", ""
        "elephant crouch 0.819; "
        "forkstrider hand_to_mouth 2.263; "
        ""
-       "inchworm crouch 0.668; kangaroo pound_ground 0.532; "
+       "inchworm crouch 0.668; "
        "longspine hand_to_mouth 2.445; octopus eat_fruit 2.174; "
        "octopus hand_to_mouth 1.515; octopus hold_platter 0.910; prehensile perform 3.012; "
        "prehensile pick_up_rock 2.050; scorpion hand_to_mouth 1.009; spider hand_to_mouth 0.581; "
@@ -180,11 +180,11 @@ _known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; crawler perform
        "random_117 roar 0.1046; snake idle_breathe 0.0733; "
        "random_117 look_around 0.2403; random_117 pick_up_rock 0.0706")
 _known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_head 0.0322; "
-       "random_114 pick_up_rock 0.0734; random_117 clap 0.035; "
+       "random_114 pick_up_rock 0.0734; "
        "random_117 nod_at_target 0.0211; random_117 pick_fruit 0.0569; random_117 point_at_target 0.0608; "
        "random_117 shrug 0.0813")
 _known(FOLDED_FADE, "rotation_pop", "mantis dance 0.5195")
-_known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312; random_117 clap 0.558")
+_known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312")
 _known(ROOT_CHILD, "rotation_pop", "random_116 hug 0.7481")
 _known(ROOT_CHILD, "below_ground", "random_117 perform 0.0886")
 _known(SPINE_BRACE, "rotation_pop", "random_107 pound_ground 0.7554")
