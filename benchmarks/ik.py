@@ -24,6 +24,8 @@ Prints a table and ends with one JSON line. Figures (all measured in this run):
   interleaved goal set by goal set; ``reach_error_rel_max_no_self_collision``: the
   accuracy figure with it off (random reachable poses are drawn without regard to the
   body, so some put a hand inside the torso, where it now stops at the surface);
+- ``parent_twist_us``: what the limb rebuild's reference through the parent's frame
+  (``IKParams.parent_twist``, on by default) costs over the paper's, the same way;
 - a per-stage profile of one solve (each stage timed alone in a loop inside numba).
 Requires the ``bench`` extra for ikpy and pybullet (``pip install -e .[bench]``); without
 them their figures are null.
@@ -348,10 +350,8 @@ def main(argv=None):
     sets = make_goal_sets(c, goal_bodies, rigid, 300, rng)
     worst = _worst_reach_error(c, solver, goal_bodies, rigid, sets, root_pos, root_rot)
     compile_and_accuracy_s = time.perf_counter() - t0
-    plan_off = plan_for(c, goal_bodies, IKParams(self_collision=False))
     solver_off = IKSolver(c, goal_bodies, IKParams(self_collision=False))
     plan_on = plan_for(c, goal_bodies, IKParams(self_collision=True))
-    solver_on = IKSolver(c, goal_bodies, IKParams(self_collision=True))
     worst_off = _worst_reach_error(c, solver_off, goal_bodies, rigid, sets, root_pos, root_rot)
 
     # One solve, public entry point, goals varying between calls.
@@ -363,35 +363,27 @@ def main(argv=None):
                                                    solver.out_rot, solver.scratch), per_set, 1))
     samples = np.array(samples)
 
-    # The self-collision's cost: the same solves with it on and off, interleaved.
-    on_t, off_t = [], []
-    for pos, rot in sets:
-        fill(solver_on.goals, goal_bodies, pos, rot)
-        fill(solver_off.goals, goal_bodies, pos, rot)
-        for _ in range(max(1, per_set // 2)):
-            on_t.extend(time_calls(lambda: solve_ik(plan_on, root_pos, root_rot, solver_on.goals, solver_on.out_pos,
-                                                    solver_on.out_rot, solver_on.scratch), 1, 5))
-            off_t.extend(time_calls(lambda: solve_ik(plan_off, root_pos, root_rot, solver_off.goals,
-                                                     solver_off.out_pos, solver_off.out_rot, solver_off.scratch),
-                                    1, 5))
-    self_collision_us = float(np.median(on_t) - np.median(off_t))
+    def paired_cost(on: IKParams, off: IKParams) -> tuple[float, np.ndarray, np.ndarray]:
+        """What ``on`` adds to one solve over ``off``: the same goal sets solved with each,
+        interleaved set by set (so load on the machine falls on both), median minus median."""
+        runs = []
+        for prm in (on, off):
+            pl = plan_for(c, goal_bodies, prm)
+            runs.append((pl, IKSolver(c, goal_bodies, prm), []))
+        for pos, rot in sets:
+            for _, sv, _ in runs:
+                fill(sv.goals, goal_bodies, pos, rot)
+            for _ in range(max(1, per_set // 2)):
+                for pl, sv, out in runs:
+                    out.extend(time_calls(lambda pl=pl, sv=sv: solve_ik(pl, root_pos, root_rot, sv.goals, sv.out_pos,
+                                                                        sv.out_rot, sv.scratch), 1, 5))
+        t_on, t_off = np.asarray(runs[0][2]), np.asarray(runs[1][2])
+        return float(np.median(t_on) - np.median(t_off)), t_on, t_off
 
-    # The ground constraint's cost: the same solves with it on and off (the default), interleaved.
-    plan_g = plan_for(c, goal_bodies, IKParams(ground=True))
-    solver_g = IKSolver(c, goal_bodies, IKParams(ground=True))
-    plan_nog = plan_for(c, goal_bodies, IKParams(ground=False))
-    solver_nog = IKSolver(c, goal_bodies, IKParams(ground=False))
-    g_on, g_off = [], []
-    for pos, rot in sets:
-        fill(solver_g.goals, goal_bodies, pos, rot)
-        fill(solver_nog.goals, goal_bodies, pos, rot)
-        for _ in range(max(1, per_set // 2)):
-            g_on.extend(time_calls(lambda: solve_ik(plan_g, root_pos, root_rot, solver_g.goals, solver_g.out_pos,
-                                                    solver_g.out_rot, solver_g.scratch), 1, 5))
-            g_off.extend(time_calls(lambda: solve_ik(plan_nog, root_pos, root_rot, solver_nog.goals,
-                                                     solver_nog.out_pos, solver_nog.out_rot, solver_nog.scratch),
-                                    1, 5))
-    ground_us = float(np.median(g_on) - np.median(g_off))
+    self_collision_us, _, off_t = paired_cost(IKParams(self_collision=True), IKParams(self_collision=False))
+    ground_us, g_on, g_off = paired_cost(IKParams(ground=True), IKParams(ground=False))
+    # the rebuild's reference through the parent's frame (on by default) against the paper's
+    parent_twist_us, _, _ = paired_cost(IKParams(parent_twist=True), IKParams(parent_twist=False))
     ncl = plan_on.arrays.cl_i
 
     # Batched: a crowd sharing the plan.
@@ -425,7 +417,7 @@ def main(argv=None):
         solve_us_p90=float(np.percentile(samples, 90)), batch_us_per_solve=batch_us, batch_size=nb,
         reach_error_rel_max=worst, reach_error_rel_max_no_self_collision=worst_off,
         self_collision_us=self_collision_us, solve_us_median_no_self_collision=float(np.median(off_t)),
-        ground_us=ground_us, solve_us_median_ground_on=float(np.median(g_on)),
+        ground_us=ground_us, solve_us_median_ground_on=float(np.median(g_on)), parent_twist_us=parent_twist_us,
         solve_us_median_ground_off=float(np.median(g_off)),
         self_collision_proxies=int(ncl[0]), self_collision_pairs=int(ncl[2]), **chain,
         stage_us={k: round(v, 3) for k, v in stages.items()},
@@ -438,6 +430,7 @@ def main(argv=None):
             ("reach_error_rel_max", worst), ("reach_error_rel_max_no_self_collision", worst_off),
             ("self_collision_us", self_collision_us), ("self_collision_pairs", int(ncl[2])),
             ("ground_us", ground_us), ("solve_us_median_ground_off", res["solve_us_median_ground_off"]),
+            ("parent_twist_us", parent_twist_us),
             ("chain_solve_us_median", chain["chain_solve_us_median"]),
             ("chain_error_max_m", chain["chain_error_max_m"]),
             ("ikpy_solve_us_median", chain["ikpy_solve_us_median"]),
