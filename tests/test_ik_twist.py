@@ -41,8 +41,8 @@ def test_each_limb_body_below_a_root_gets_a_reference_bent_45_degrees_from_its_p
     """Plan fields: a unit direction in the parent's frame, 45 degrees from the parent's
     bone, for every one- and two-axis body below a limb root that is not folded at rest;
     its reference rotation takes the body's rest chord onto it (so the rest pose is exact);
-    zero at roots, leaves held by a tip particle, rigid bodies and folded joints, and
-    everywhere with it off."""
+    zero at roots, a fork's branches, leaves held by a tip particle, rigid bodies and
+    folded joints, and everywhere with it off."""
     c = list(_creatures())[k]
     goals = sorted({int(b) for b in c.leg_foot} | {int(b) for b in range(c.nbody) if c.body_limb[b] >= 0
                                                     and c.body_child_num[b] == 0})
@@ -53,7 +53,8 @@ def test_each_limb_body_below_a_root_gets_a_reference_bent_45_degrees_from_its_p
     for i in range(P.lp_body.shape[0]):
         d = P.lp_ref_dir[i]
         b, pp, c1, mode = int(P.lp_body[i]), int(P.lp_parent[i]), int(P.lp_c1[i]), int(P.lp_mode[i])
-        if pp < 0 or mode not in (0, 1) or c1 < 0 or int(P.lp_body[c1]) == b:   # (a tip: c1 is the body's own)
+        if pp < 0 or mode not in (0, 1) or c1 < 0 or int(P.lp_body[c1]) == b or int(P.lp_mode[pp]) == 1:
+            # (a tip: c1 is the body's own; a fork's branch: its parent has two axes)
             assert np.all(d == 0.0), c.body_names[b]
             continue
         end = rr_joint[int(P.lp_body[c1])]

@@ -201,7 +201,10 @@ def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray
     limb roots (their chord is set by the aim, ``_aim_via``, whose own singular direction
     is behind; a root reference through forward was tried and changed nothing there: the
     root flips left in the grid are particles jumping, not the rebuild), joints folded
-    past ``FOLDED_COS`` at rest, rigid bodies, and leaves held at their origin by a tip
+    past ``FOLDED_COS`` at rest, rigid bodies, the branches of a fork (the fork body's frame
+    comes from two of its children's chords and turns fast as a branching leg splays:
+    random creature 10162's toe segment turned 0.86 rad in one frame carried by it), and
+    leaves held at their origin by a tip
     particle (a hand with a position goal: its chord is the few millimetres from its joint
     to its origin, and where the wrist particle wanders the parent's frame put it on the
     new singular chord: a capture's RightHand turned 2.8 rad in one frame as dance's goal
@@ -222,7 +225,7 @@ def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray
         if nr < 1e-9:
             continue
         r = r / nr
-        if P["parent"] < 0:
+        if P["parent"] < 0 or lp[P["parent"]]["mode"] == 1:
             continue
         ref = lp[P["parent"]]["body"]
         sv = _qrot(qa, P["local"] - lp[P["parent"]]["local"])   # the parent's bone
