@@ -179,7 +179,7 @@ _known(IK_GROUND, "below_ground", "crawler jump_in_place 0.0424; crawler perform
        "random_117 crouch 0.0292; random_117 jump_in_place 0.046; random_117 pound_ground 0.0461; "
        "random_117 roar 0.1046; snake idle_breathe 0.0733; "
        "random_117 look_around 0.2403; random_117 pick_up_rock 0.0706")
-_known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; snake shake_head 0.0322; "
+_known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.53; "
        "random_114 pick_up_rock 0.0734; "
        "random_117 nod_at_target 0.0211; random_117 pick_fruit 0.0569; random_117 point_at_target 0.0608; "
        "random_117 shrug 0.0813")
