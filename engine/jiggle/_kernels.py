@@ -108,7 +108,6 @@ def jiggle_kernel(
     target = np.empty(3)
     turn = np.empty(4)
     final_rot = np.empty(4)
-    tmp4 = np.empty(4)
     offset = np.empty(3)
     tmp = np.empty(3)
     tmp2 = np.empty(3)
@@ -267,11 +266,9 @@ def jiggle_kernel(
                 state_twist[i, 1] = twv
                 if tw != 0.0:
                     tq = quat_from_axis_angle_t((lever_sim[0], lever_sim[1], lever_sim[2]), tw)
+                    r4 = quat_mul_t(tq, final_rot)
                     for k in range(4):
-                        turn[k] = tq[k]
-                    quat_mul_into(turn, final_rot, tmp4)
-                    for k in range(4):
-                        final_rot[k] = tmp4[k]
+                        final_rot[k] = r4[k]
             # The ground: a passive body does not swing into it (a tentacle or a tail lying
             # on the ground rests on it). Its box's lowest corner is lifted onto the plane by
             # turning the body about its joint, and the spring takes the lifted tip as its

@@ -139,7 +139,9 @@ class JiggleRig:
         parent_length = np.array([length[p] if p >= 0 else np.inf for p in creature.body_parent])
         arrays = dict(lever=lever, omega=2.0 * np.pi * np.asarray(freq, float),
                       zeta=np.asarray(zeta, float), max_err=MAX_DEFLECTION * length,
-                      sleep=SLEEP * np.maximum(length, 1e-6), follow=length < FOLLOW_RATIO * parent_length)
+                      sleep=SLEEP * np.maximum(length, 1e-6),
+                      # an eye rides its posed head whatever its size (it has no lag of its own)
+                      follow=(length < FOLLOW_RATIO * parent_length) | ((creature.body_caps & np.uint32(EYE)) != 0))
         for a in arrays.values():
             a.flags.writeable = False
         return cls(creature=creature, **arrays)
