@@ -179,12 +179,14 @@ def test_a_passive_chain_is_not_a_whip():
     assert first_lag > 0.0
 
 
+def _all_driven_at_rest(c):
+    """A fresh rig and state, the rest pose, and every body driven."""
+    return (JiggleRig.for_creature(c), JiggleState(c.nbody), np.array(c.body_rest_pos, dtype=float),
+            np.array(c.body_rest_rot, dtype=float), np.ones(c.nbody, np.bool_))
+
+
 def test_body_becoming_passive_starts_where_it_was(creature):
-    rig = JiggleRig.for_creature(creature)
-    state = JiggleState(creature.nbody)
-    pos = np.array(creature.body_rest_pos, dtype=float)
-    rot = np.array(creature.body_rest_rot, dtype=float)
-    driven = np.ones(creature.nbody, np.bool_)
+    rig, state, pos, rot, driven = _all_driven_at_rest(creature)
     head = creature.body("head")
     # The head is animated, tilted 0.5 rad; next frame the animation lets go of it.
     tilt = quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.5)
@@ -210,11 +212,7 @@ def test_body_becoming_passive_keeps_its_twist_and_springs_it_back(creature):
     back in one frame (a 0.8 rad pop as every clip ended). The twist is kept at the
     hand-off and springs back to zero like the deflection: one frame later it has moved
     a little, and within two seconds it is at rest."""
-    rig = JiggleRig.for_creature(creature)
-    state = JiggleState(creature.nbody)
-    pos = np.array(creature.body_rest_pos, dtype=float)
-    rot = np.array(creature.body_rest_rot, dtype=float)
-    driven = np.ones(creature.nbody, np.bool_)
+    rig, state, pos, rot, driven = _all_driven_at_rest(creature)
     tail = creature.body("tail1")
     lever = quat_rotate(rot[tail], rig.lever[tail])
     twist = quat_from_axis_angle(lever / np.linalg.norm(lever), 0.8)
@@ -244,11 +242,7 @@ def test_eyes_ride_rigidly_in_their_heads():
     from engine.paths import LIBRARY_CREATURES
 
     c = engine.load_creature(LIBRARY_CREATURES / "humanoid.yaml")
-    rig = JiggleRig.for_creature(c)
-    state = JiggleState(c.nbody)
-    pos = np.array(c.body_rest_pos, dtype=float)
-    rot = np.array(c.body_rest_rot, dtype=float)
-    driven = np.ones(c.nbody, np.bool_)
+    rig, state, pos, rot, driven = _all_driven_at_rest(c)
     eyes = [c.body("eye_l"), c.body("eye_r")]
     head = c.body("head")
     for e in eyes:

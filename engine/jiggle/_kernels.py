@@ -51,6 +51,7 @@ from engine.mathx.quat import (
     quat_mul_t,
     quat_rotate_into,
     quat_rotate_t,
+    quat_twist_angle_t,
 )
 
 #: Largest share of a body's lever its parent's lag may push its tip by (see the kernel).
@@ -372,10 +373,4 @@ def _handoff_twist(last_rot, rigid_rot, lever, lever_rigid):
     sr = quat_mul_t(quat_between_t(lever_rigid, (lx, ly, lz)), rigid_rot)
     # residual = last * conj(swing * rigid): a turn about the lever
     r = quat_mul_t(last_rot, (sr[0], -sr[1], -sr[2], -sr[3]))
-    along = (r[1] * lx + r[2] * ly + r[3] * lz) / nl
-    ang = 2.0 * np.arctan2(along, r[0])
-    if ang > np.pi:
-        ang -= 2.0 * np.pi
-    elif ang <= -np.pi:
-        ang += 2.0 * np.pi
-    return ang
+    return quat_twist_angle_t(r, (lx / nl, ly / nl, lz / nl))

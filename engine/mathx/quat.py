@@ -383,6 +383,19 @@ def quat_from_axis_angle_t(axis, angle):
 
 
 @njit(cache=True)
+def quat_twist_angle_t(q, axis):
+    """Signed angle (rad, in (-pi, pi]) of the twist part of q about the unit ``axis``
+    (the swing-twist split). ``engine.ik._kernels.twist_angle`` is the IK's private twin."""
+    p = q[1] * axis[0] + q[2] * axis[1] + q[3] * axis[2]
+    ang = 2.0 * math.atan2(p, q[0])
+    if ang > math.pi:
+        ang -= 2.0 * math.pi
+    elif ang <= -math.pi:
+        ang += 2.0 * math.pi
+    return ang
+
+
+@njit(cache=True)
 def quat_from_axis_angle_into(axis, angle, out):
     """out = rotation by angle (rad, right-handed) about axis; the axis need not be unit,
     a zero or non-finite axis, or a non-finite angle, gives the identity."""
