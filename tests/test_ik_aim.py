@@ -43,3 +43,4 @@ def test_aim_goes_through_forward_across_each_limb_and_only_at_limb_roots():
     np.testing.assert_allclose(n[roots], 1.0, atol=1e-9)
     assert np.all(n[~roots] == 0.0)
     assert np.all(plan_for(c, goals, DEFAULT_PARAMS).arrays.ag_via == 0.0) == (not DEFAULT_PARAMS.aim_via)
+

@@ -289,11 +289,27 @@ def _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, i, c, q):
     return v, (1.0 - wr) * u + wr
 
 @njit(cache=True, _nrt=False, inline="always")
-def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+def _held(lp_inv, i, c, v, u, rigid):
+    """(pivot, tip) shares of a push with the particles pinned by goals held: a pinned
+    particle's share is dropped (the other end of the bone takes the push alone, turning
+    the bone about the pin); a chain's end body moved whole stays put when either end is
+    pinned."""
+    pin_i = lp_inv[i] <= 0.0
+    pin_c = lp_inv[c] <= 0.0
+    if rigid and (pin_i or pin_c):
+        return 0.0, 0.0
+    return (0.0 if pin_i else v), (0.0 if pin_c else u)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv, hold):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
     particles apart along the contact normal. The pushes are averaged per particle and
     applied after the pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
-    left and right stay mirror images. Returns how many pairs pushed."""
+    left and right stay mirror images. With ``hold`` (the pushes inside the limb
+    iterations, ``push_round``) a particle pinned by a goal (``lp_inv`` 0) takes no share:
+    its bone turns about it, so an elbow goes round the chest while the hand stays on its
+    goal. Returns how many pairs pushed."""
     nprox = cl_i[0]
     nmove = cl_i[1]
     npair = cl_i[2]
@@ -362,10 +378,16 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         vb = 0.0
         if ia >= 0:
             va, ua = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ia, ca, qa)
+            if hold:
+                va, ua = _held(lp_inv, ia, ca, va, ua, _rigid_end(P, ca))
             denom += va * va + ua * ua
         if ib >= 0:
             vb, ub = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ib, cb, qb)
+            if hold:
+                vb, ub = _held(lp_inv, ib, cb, vb, ub, _rigid_end(P, cb))
             denom += vb * vb + ub * ub
+        if denom <= 0.0:
+            continue
         lam = pen / max(denom, MIN_DENOM)
         if ia >= 0:
             _nudge(delta, count, ia, n, lam * va)
@@ -387,6 +409,8 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
                     delta[i, j] /= k
                 count[i, 0] = 0.0
         for i in range(nlp):
+            if hold and lp_inv[i] <= 0.0:
+                continue
             src = P.lp_parent[i] if _rigid_end(P, i) else i
             for j in range(3):
                 lp_pos[i, j] += delta[src, j]
@@ -397,25 +421,51 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
-    """The limb phase's self-collision step (after its constraint iterations, before its
-    rebuild): ``rounds`` times update the proxies, push overlapping pairs apart, and give
-    the limbs their lengths back by outward projection (as the rebuild does). Returns
-    how many pair pushes there were (0: nothing touched)."""
+def begin(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
+    """Once per solve, before the limb iterations: the movers' rest offsets and the fixed
+    proxies (the spine is posed and stays put in the limb phase)."""
     cl_i = P.cl_i
     cl_f = P.cl_f
     nprox = cl_i[0]
     nmove = cl_i[1]
-    w0 = cl_i[3] + P.b_joint_offset.shape[0]   # after the settled goals (``settle_goals``)
-    work = scratch[w0:w0 + W * nprox + 2 * lp_pos.shape[0]]
+    work = _work(P, scratch, lp_pos)
     for k in range(nmove):
         _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _work(P, scratch, lp_pos):
+    w0 = P.cl_i[3] + P.b_joint_offset.shape[0]   # after the settled goals (``settle_goals``)
+    return scratch[w0:w0 + W * P.cl_i[0] + 2 * lp_pos.shape[0]]
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def push_round(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv):
+    """One pass of pushes inside the limb iterations (after ``begin``), the goal-pinned
+    particles held: the constraint sweeps that follow carry the push along the limb and
+    keep the goals met, so a limb is routed round the bodies in its way instead of
+    being pushed off its goal at the end."""
+    work = _work(P, scratch, lp_pos)
+    return _push_pairs(P, P.cl_i, P.cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
+                       True)
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv):
+    """The limb phase's self-collision step (after its constraint iterations, before its
+    rebuild; ``begin`` has run): ``rounds`` times update the proxies, push overlapping
+    pairs apart, and give the limbs their lengths back by outward projection (as the
+    rebuild does). Returns how many pair pushes there were (0: nothing touched)."""
+    cl_i = P.cl_i
+    cl_f = P.cl_f
+    work = _work(P, scratch, lp_pos)
     nlp = P.lp_body.shape[0]
     total = 0
     for _round in range(cl_i[4]):
-        pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+        pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
+                             False)
         if pushed == 0:
             break
         total += pushed
@@ -436,15 +486,16 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 @njit(cache=True, _nrt=False, inline="always")
 def _goal_push(pen, band):
-    """How far a goal ``pen`` inside a surface (negative: outside) is moved out: 0 beyond
-    ``band`` outside, all of it beyond ``band`` inside, a quadratic between (C1: a goal
-    crossing the surface moves smoothly, and a deep goal lands on the surface)."""
-    if pen <= -band:
+    """How far a goal ``pen`` inside a surface (negative: outside) is moved out: nothing
+    outside (a goal on or off the surface, as a rest pose's are, stays where it is), all of
+    it beyond ``band`` inside (a deep goal lands on the surface), and between a cubic
+    2 x^2 / band - x^3 / band^2 that meets both with their slopes (C1: a goal crossing
+    the surface moves smoothly; it never moves out further than it is in)."""
+    if pen <= 0.0:
         return 0.0
     if pen >= band:
         return pen
-    x = pen + band
-    return x * x / (4.0 * band)
+    return pen * pen * (2.0 - pen / band) / band
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -453,6 +504,14 @@ def _limb_root_rest(P, gi, out_pos, out_rot):
     i = P.goal_lproot[gi]
     if i < 0:
         return _v3(out_pos, 0)
+    s = P.lp_attach[i]
+    return _add(_v3(out_pos, s), _rot(_q4(out_rot, s), _v3(P.lp_local, i)))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _goal_rest(P, gi, out_pos, out_rot):
+    """Rest place of goal gi's particle carried by its posed attach body."""
+    i = P.goal_lp[gi]
     s = P.lp_attach[i]
     return _add(_v3(out_pos, s), _rot(_q4(out_rot, s), _v3(P.lp_local, i)))
 
@@ -570,25 +629,41 @@ def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
                 gA = _v3(moved, b)
                 gB = _v3(moved, bj)
                 d = _sub(gA, gB)
-                dist = math.sqrt(_dot(d, d))
                 reach = rg + rj - cl_f[allow0 + 2 * p]
+                if reach <= 0.0:
+                    continue
                 band = 0.5 * min(rg, rj)
-                m = _goal_push(reach - dist, band)
-                if m <= 0.0:
-                    continue
-                u = _sub(_limb_root_rest(P, gi, out_pos, out_rot), _limb_root_rest(P, gj, out_pos, out_rot))
+                u = _sub(_goal_rest(P, gi, out_pos, out_rot), _goal_rest(P, gj, out_pos, out_rot))
                 nu = math.sqrt(_dot(u, u))
-                n = d
                 if nu > EPS:
-                    n = _add(d, _scale(u, 0.25 * min(rg, rj) * min(m / band, 1.0) / nu))
-                nn = math.sqrt(_dot(n, n))
-                if nn < EPS:
+                    # Apart along the line between the two bodies' rest places (carried by
+                    # the posed spine), each goal kept on the side it has at rest: goals
+                    # that cross (a hug's hands passing each other) stop at each other
+                    # instead of jumping to the other side when their difference turns
+                    # over. The separation needed along that line falls from ``reach``
+                    # (goals level) to 0 (goals ``reach`` apart across it) as a parabola
+                    # (the sphere's circle has an infinite slope at its edge: the goals
+                    # would slide sideways abruptly); crossed goals are pushed back by
+                    # (1 - x2) of their overlap along the line, which is 0 where they are
+                    # apart across it (an insect's feet cross their legs' roots at rest).
+                    uh = _scale(u, 1.0 / nu)
+                    sep = _dot(d, uh)
+                    across = _sub(d, _scale(uh, sep))
+                    x2 = min(_dot(across, across) / (reach * reach), 1.0)
+                    m = _goal_push((1.0 - x2) * (reach - min(sep, 0.0)) - max(sep, 0.0), band)
+                    if m <= 0.0:
+                        continue
+                    _set3(moved, b, _add(gA, _scale(uh, 0.5 * m)))
+                    _set3(moved, bj, _sub(gB, _scale(uh, 0.5 * m)))
                     continue
-                # both to distance dist + m apart about their middle
-                mid = _scale(_add(gA, gB), 0.5)
-                h = 0.5 * (dist + m) / nn
-                _set3(moved, b, _add(mid, _scale(n, h)))
-                _set3(moved, bj, _sub(mid, _scale(n, h)))
+                # two goals of one limb (no side to keep): apart along their difference
+                dist = math.sqrt(_dot(d, d))
+                m = _goal_push(reach - dist, band)
+                if m <= 0.0 or dist < EPS:
+                    continue
+                h = 0.5 * m / dist
+                _set3(moved, b, _add(gA, _scale(d, h)))
+                _set3(moved, bj, _sub(gB, _scale(d, h)))
     for gi in range(ngoal):
         b = P.goal_body[gi]
         if P.goal_lp[gi] < 0 or goal_pos_w[b] <= 0.0:

@@ -126,7 +126,8 @@ P_SOFT_SLOPE, P_SOFT_BAND, P_SOFT_WIDTH = 4, 5, 6
 P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8, 9, 10, 11
 P_SOFT_REACH, P_LIMB_STRETCH = 12, 13
 P_GOAL_AIM, P_ROOT_PIN, P_GROUND = 14, 15, 16
-NPARAM = 17
+P_CONTACT_ITERATE = 17
+NPARAM = 18
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
 # state, dg_target, sp_acc, lg_target, lg_jtarget, segbody_tp.
@@ -1403,12 +1404,16 @@ def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_po
             across = vsub(y, vscale(ghat, along))
             set3(lp_pos, m, vadd(piv, vadd(vscale(ghat, scale * along), vscale(across, widen))))
     # Goal particles at their goals (weighted), then the constraint iterations.
+    collide = P.cl_i[0] > 0   # limbs kept out of the creature's other bodies (issue 16)
+    if collide:
+        _collide.begin(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
     _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, int(prm[P_LIMB_OUTER]),
-                  int(prm[P_LIMB_INNER]), lp_rest, out_rot, ground_on, gn, gd, v3(out_pos, 0))
+                  int(prm[P_LIMB_INNER]), lp_rest, out_rot, ground_on, gn, gd, v3(out_pos, 0), collide, scratch,
+                  goal_rot, out_pos)
     _soft_reach_stretch(P, goal_pos, goal_pos_w, goal_rot_w, goal_joint, lp_pos)
     _seat_free_joints(P, goal_pos_w, goal_rot_w, lp_pos, lp_rest)
-    if P.cl_i[0] > 0:  # limbs out of the creature's other bodies (issue 16)
-        _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    if collide:
+        _collide.resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv)
     _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
 
 
@@ -1574,7 +1579,7 @@ def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_ro
 
 @njit(cache=True, _nrt=False, inline="always")
 def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, n_outer, n_inner, lp_rest,
-                  out_rot, ground_on, gn, gd, ctr):
+                  out_rot, ground_on, gn, gd, ctr, collide, scratch, goal_rot, out_pos):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
     constraints leaves inward, and an outward projection of every particle to its allowed
     stretch from its parent. The inward sweeps carry the goal error toward the spine; the
@@ -1587,6 +1592,7 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                     lp_inv, True)
     nlc = P.lc_a.shape[0]
     nlp = P.lp_body.shape[0]
+    push = collide and prm[P_CONTACT_ITERATE] > 0.0
     for _outer in range(n_outer):
         if _outer > 0:
             for i in range(nlp):
@@ -1595,6 +1601,9 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                     project_length(lp_pos, P.lp_parent[i], i, P.lc_len[c], P.lc_plo[c], P.lc_phi[c])
             _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_rot_w, lg_target, lg_jtarget,
                             lp_pos, lp_inv, True)
+            if push:
+                # contacts pushed with the goals held; the sweeps below route the limb
+                _collide.push_round(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv)
         for _inner in range(n_inner):
             if ground_on:
                 # lifted first, so the sweep that follows puts the lengths right again

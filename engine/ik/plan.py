@@ -62,6 +62,8 @@ class IKParams:
     spline_regularization: float = 1e-3
     self_collision: bool = False  # limbs pushed out of the creature's other bodies in the limb phase (issue 16)
     self_collision_rounds: int = 2  # push-and-project rounds after the limb iterations (engine/ik/_collide.py)
+    self_collision_iterate: bool = False  # contacts also pushed inside the limb iterations with the goals held
+                                          # (routes limbs round the body; more flips: engine/ik/NOTES.md)
     goal_aim: int = 1             # a spine body held at a goal swings to point at its outward neighbour as far
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
@@ -94,6 +96,7 @@ class IKParams:
         v[K.P_GOAL_AIM] = self.goal_aim
         v[K.P_ROOT_PIN] = 1.0 if self.root_pin else 0.0
         v[K.P_GROUND] = 1.0 if self.ground else 0.0
+        v[K.P_CONTACT_ITERATE] = 1.0 if self.self_collision_iterate else 0.0
         return v
 
     def validate(self) -> None:
