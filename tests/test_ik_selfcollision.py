@@ -330,10 +330,14 @@ def test_crossing_hand_goals_keep_their_sides_and_move_continuously():
 
 
 @pytest.mark.parametrize("name", ["humanoid", "hexapod", "spider", "crab", "octopus", "random:7", "random:4246"])
-def test_a_rest_pose_is_never_settled(name):
+def test_a_rest_pose_is_hardly_settled(name):
     """Goals at the rest places of their bodies are where the creature's own shape puts
-    them: the settling leaves them as they are (an insect's feet cross the line between
-    their legs' roots at rest; that is theirs, like the boxes' rest overlaps)."""
+    them: the settling leaves them where they are (an insect's feet cross the line between
+    their legs' roots at rest; that is theirs, like the boxes' rest overlaps), but for the
+    smooth band at a surface, which moves a goal lying on it (or a little inside, where a
+    body's origin is off its box's middle) out by a fraction of its radius: the spider's
+    spinneret on its abdomen, 1.3 mm, a quarter of its radius; nothing else moves."""
+    from engine.ik.selfcollision import capsule_of_box
     from engine.ik.selfcollision import settled_goals
 
     if name.startswith("random:"):
@@ -348,7 +352,9 @@ def test_a_rest_pose_is_never_settled(name):
     gw[goals] = 1.0
     s = settled_goals(plan, rest_pos, gw, rest_pos, rest_rot)
     moved = np.linalg.norm(s[goals] - rest_pos[goals], axis=1)
-    assert moved.max() < 1e-9, [(c.body_names[g], m) for g, m in zip(goals, moved, strict=True) if m >= 1e-9]
+    bound = np.array([capsule_of_box(c.body_extent[g])[2] for g in goals]) / 2.0 + 1e-12
+    assert np.all(moved <= bound), [(c.body_names[g], m) for g, m, b in zip(goals, moved, bound, strict=True) if m > b]
+    assert np.mean(moved == 0.0) > 0.9
 
 
 @pytest.mark.parametrize("name", ["humanoid", "giant", "twoheaded"])
@@ -373,7 +379,7 @@ def test_pushes_inside_the_iterations_keep_the_hand_nearer_its_goal():
     goal-held particles fixed route the forearm round the belly while the hand stays at
     its goal, where pushes after the iterations alone take the hand off it. The grid's
     humanoid point_at_target cell with one of its random targets in front of the belly
-    (reach_miss, share of the arm's reach): 0.101 after the iterations alone, 0.081 with
+    (reach_miss, share of the arm's reach): 0.092 after the iterations alone, 0.070 with
     the pushes inside them (measured in stop 30)."""
     from engine.validation.cell import CellContext, cell_target_sets
     from engine.validation.goals import goal_error
@@ -390,4 +396,4 @@ def test_pushes_inside_the_iterations_keep_the_hand_nearer_its_goal():
         prm = IKParams(self_collision=True, self_collision_iterate=it)
         rec = record_cell(c, a, v.index, targets, character=engine.Character(c, ik_params=prm))
         miss[it] = next(m.value for m in goal_error(rec, ctx) if m.name == "reach_miss")
-    assert miss[True] < 0.9 * miss[False], miss
+    assert miss[True] < 0.85 * miss[False], miss
