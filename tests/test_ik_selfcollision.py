@@ -337,8 +337,7 @@ def test_a_rest_pose_is_hardly_settled(name):
     smooth band at a surface, which moves a goal lying on it (or a little inside, where a
     body's origin is off its box's middle) out by a fraction of its radius: the spider's
     spinneret on its abdomen, 1.3 mm, a quarter of its radius; nothing else moves."""
-    from engine.ik.selfcollision import capsule_of_box
-    from engine.ik.selfcollision import settled_goals
+    from engine.ik.selfcollision import capsule_of_box, settled_goals
 
     if name.startswith("random:"):
         c = build_creature(random_creature_def(int(name[7:])))
