@@ -164,8 +164,9 @@ def main() -> None:
     ap.add_argument("--random", type=int, default=5, help="random creatures (seeds 0..N-1)")
     ap.add_argument("--hits", type=int, default=4, help="single hits per creature")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--stand", choices=("on", "off", "lookahead"), default="on",
-                    help="the standing controller in both simulations, in none, or in the lookahead only")
+    ap.add_argument("--stand", choices=("on", "off", "lookahead", "live"), default="on",
+                    help="the standing controller as ImpactParams has it (on), in none, in the lookahead "
+                         "only, or in both (live)")
     ap.add_argument("--creatures", nargs="*", default=None,
                     help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
@@ -174,7 +175,7 @@ def main() -> None:
     if args.creatures is not None:
         paths = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in args.creatures]
     params = {"on": None, "off": ImpactParams(stand=None),
-              "lookahead": ImpactParams(stand_live=False)}[args.stand]
+              "lookahead": ImpactParams(stand_live=False), "live": ImpactParams(stand_live=True)}[args.stand]
     creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s))
                                                            for s in range(args.random)]
     hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))

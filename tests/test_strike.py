@@ -77,12 +77,12 @@ def test_punch_lands_victim_reacts_attacker_recoils():
     assert back_a is not None and back_a < 0.8                    # measured 0.63 s (0.1 s recoil + blend)
     assert back_v is not None and back_v < 2.0
     assert turn_a < 0.5 and turn_v < 0.5                          # measured 0.33 / 0.25 rad per frame
-    # pushed away from the attacker: the victim's root sways back during the reaction and ends
-    # behind where it stood. Measured with the planted feet held (ground contacts through the
-    # tree, issue 13): 10.6 N s on spine2 (0.19 m/s on 57 kg), the root 0.064 m back at most, 0.011 m
-    # at the end; before, the feet slid and it ended > 0.02 m back (the old bound, on the end alone)
-    assert reach > 0.04, reach
-    assert moved[0] > 0.005, moved
+    # pushed away from the attacker: the victim's root sways back during the reaction. 10.6 N s on
+    # spine2 is 0.19 m/s on 57 kg: with the stance servos anchored (ImpactParams.servo_anchor) the
+    # root sways 0.024 m back and the response is a tap that ends where it stood (0.0005 m); with
+    # the feet held but the legs soft, 0.064 m back and 0.011 m at the end; with sliding feet, more
+    assert reach > 0.015, reach
+    assert abs(moved[0]) < 0.02, moved
 
 
 def test_out_of_reach_no_contact():

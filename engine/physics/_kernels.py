@@ -66,7 +66,8 @@ P_JOINT_HZ, P_JOINT_ZETA = 14, 15
 P_MAX_PUSH, P_MARGIN = 16, 17
 P_TERRAIN_X0, P_TERRAIN_Y0, P_TERRAIN_CELL = 18, 19, 20
 P_SOLVER = 21          # 0: Gauss-Seidel ball joints, 1: direct tree solve
-NPARAM = 22
+P_SERVO_ANCHOR = 22    # 1: a loaded foot anchors its side of a servo (WorldSettings.servo_anchor)
+NPARAM = 23
 
 # contact kinds per body
 KIND_NONE, KIND_GROUND, KIND_FOOT = 0, 1, 2
@@ -385,8 +386,17 @@ def _servo_inertia(m, s):
             sc[b, c] = 0.0
             for d in range(3):
                 sj[b, c, d] = 0.0
+    anchor = m.params[P_SERVO_ANCHOR]
+    if anchor != 0.0:
+        # a foot (1) or any body (2) the ground pushed last substep anchors its side (see
+        # WorldSettings.servo_anchor)
+        for f in range(m.feat_body.shape[0]):
+            b = m.feat_body[f]
+            if (anchor > 1.5 or m.body_contact_kind[b] == KIND_FOOT) and s.feat_active[f] != 0 \
+                    and s.feat_imp[f, 0] > 0.0:
+                s.sub_fixed[b] = 2
     for b in range(n - 1, -1, -1):
-        if m.body_inv_mass[b] == 0.0:
+        if m.body_inv_mass[b] == 0.0 or s.sub_fixed[b] == 2:
             s.sub_fixed[b] = 1
         else:
             mass = 1.0 / m.body_inv_mass[b]

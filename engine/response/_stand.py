@@ -55,8 +55,10 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, bo
     ref (7,): c_ref x, y (where the centre of mass stood, world),
         q_ref (4) the root's orientation to hold, and a flag (1: the reference is set;
         0: set it from this frame and store it).
-    gains (6,): kp, kd of the centre of mass (1/s^2, 1/s), kp_r, kd_r of the root's
-        orientation, the support tolerance (m), the fraction of full balance (0..1).
+    gains (8,): kp, kd of the centre of mass (1/s^2, 1/s), kp_r, kd_r of the root's
+        orientation, the support tolerance (m), the fraction of full balance (0..1), and
+        1 to write the weight-carrying joint torques (0: the root's balance wrench alone),
+        the least reach (m) of the supports' moment (the rest stance's own lean).
     body_press (n,): how far (m) a support's pressure centre can move from its centre:
         its moment is limited to that times the weight it carries.
     scratch (n, 8): subtree mass, mass-weighted position, support force sums, moment sums.
@@ -262,6 +264,8 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, bo
             rr = math.sqrt((support[b, 1] - sx) ** 2 + (support[b, 2] - sy) ** 2) + body_press[b]
             if rr > reach:
                 reach = rr
+    if reach < gains[7]:
+        reach = gains[7]
     lim = M * g * reach
     tn = math.sqrt(resx * resx + resy * resy + resz * resz)
     if tn > lim:
@@ -273,6 +277,10 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, bo
     torque[0, 2] += resz
     force[0, 0] += fhx
     force[0, 1] += fhy
+    if gains[6] == 0.0:
+        # the balance wrench alone: stance legs held stiff by anchored servos carry it
+        out[6] = 1.0
+        return
     # -- joint torques, distal to proximal ------------------------------------------------
     # scratch[b, 5:8] becomes the sum of f_i over the supports in b's subtree, support[b, 1:4]
     # the sum of p_i x f_i + T_i (moments about the world origin), so that

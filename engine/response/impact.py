@@ -94,6 +94,7 @@ class ImpactParams:
     handoff_fade: float = 0.0
     contact_dv: float = 4.0          # m/s: an instantaneous hit is spread so the struck body alone gains this per frame
     contact_max: float = 0.1         # s: ... over at most this long (a shove, not a punch, beyond it)
+    contact_spin: float = 18.0       # rad/s: ... and no faster than this about a point its own length away
     resume_fade: float = 0.3         # s of the crossfade from a one-shot found clip back to the loop
     # The standing controller (engine.response.stand) in both simulations: gravity
     # compensation always, the balance term while the servos hold the interrupted pose (it
@@ -106,6 +107,15 @@ class ImpactParams:
     # median 0.11 against 0.20 rad). With it off, the humanoid's hits in series in
     # tests/test_impact.py turn ears and eyes 0.65-0.78 rad in the blend out of a fall (xfail).
     stand_live: bool = False
+    servo_anchor: bool | str = True
+    # A tap: Simulation 1's root stays within tap_move of the height of where it was and turns
+    # less than tap_turn (rad) over the lookahead. The response then blends back onto the
+    # clip that kept playing at the end of the reaction delay, with no search (the search
+    # ranked the first frames of a fall above the interrupted idle for a 1 mN s tap on a
+    # 15 cm creature: every window is near a held pose). 0 turns it off.
+    tap_move: float = 0.05
+    tap_turn: float = 0.2
+    servo_height: float = 1.75
 
 
 _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -113,7 +123,7 @@ _MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 def _models(creature, p: ImpactParams):
     """(Simulation 1 model, Simulation 2 model) of a creature, built once."""
-    key = (p.servo_hz, p.servo_zeta, p.sim1_mu, p.sim2_mu)
+    key = (p.servo_hz, p.servo_zeta, p.sim1_mu, p.sim2_mu, p.servo_anchor, p.servo_height)
     per = _MODELS.setdefault(creature, {})
     hit = per.get(key)
     if hit is None:
@@ -125,13 +135,25 @@ def _models(creature, p: ImpactParams):
         has_child[[int(q) for q in creature.body_parent if q >= 0]] = True
         locked = tuple(creature.body_names[b] for b in range(1, creature.nbody)
                        if not has_child[b] and vol[b] < 0.01 * vol.sum())
-        opts = CreatureBodyOptions(servo_hz=p.servo_hz, servo_zeta=p.servo_zeta, locked=locked)
+        opts = CreatureBodyOptions(servo_hz=servo_hz_of(creature, p), servo_zeta=p.servo_zeta, locked=locked)
         out = []
         for mu in (p.sim1_mu, p.sim2_mu):
             foot = ContactSettings(hz=DEFAULT_FOOT.hz, zeta=DEFAULT_FOOT.zeta, mu=mu, spin_mu=DEFAULT_FOOT.spin_mu)
-            out.append(model_from_creatures(creature, options=opts, settings=WorldSettings(foot=foot)))
+            out.append(model_from_creatures(creature, options=opts,
+                                            settings=WorldSettings(foot=foot, servo_anchor=p.servo_anchor)))
         hit = per[key] = tuple(out)
     return hit
+
+
+def servo_hz_of(creature, p: ImpactParams) -> float:
+    """The servos' frequency for a creature: ``servo_hz`` at ``servo_height`` and above,
+    raised as 1/sqrt(height) below it (dynamic similarity: a held limb sags under gravity
+    by about g / (omega^2 L), so a creature a tenth of the size needs sqrt(10) times the
+    frequency to sag by the same angle; at 5 Hz a 15 cm creature's tail dropped to the
+    ground in 0.1 s after a tap)."""
+    if p.servo_height <= 0.0:
+        return p.servo_hz
+    return p.servo_hz * math.sqrt(max(p.servo_height / max(float(creature.height), 1e-6), 1.0))
 
 
 def chain_bodies(creature, body: int) -> np.ndarray:
@@ -193,6 +215,7 @@ class ImpactResponse:
         self.match = None             #: the SearchResult
         self.entry = None             #: the library entry (clip, variant, speed; or a gait cycle)
         self.hits = 0
+        self.tap = False              #: the running response is a tap (no search, see _is_tap)
         self.time = 0.0               # s since the last hit
         self.since_start = 0.0        # s since the response began
         self._contact = []            # [body, force (3,), point or None, seconds left]
@@ -324,6 +347,7 @@ class ImpactResponse:
         self.phase = "burst"
         self._settle_at = None
         self.hits += 1
+        self.tap = False              #: the running response is a tap (no search, see _is_tap)
         self.time = 0.0
         self.clip = None
         self.match = None
@@ -336,7 +360,11 @@ class ImpactResponse:
         # 1.5 kg neck over one frame turned it 1 rad in that frame (humanoid, 44 N s).
         dt = ch._stack.last_dt
         m_b = float(self.model2.body_mass[b])
-        soft = np.linalg.norm(J) * dt / (max(m_b, 1e-9) * p.contact_dv)
+        # per frame, the struck body alone gains at most contact_dv, and no more than would
+        # spin it at contact_spin about a point its own length away (a 2.5 m/s hit on a 2 cm
+        # crab leg segment at 4 m/s a frame turned it 1 rad in the impact tick)
+        dv = min(p.contact_dv, p.contact_spin * 2.0 * float(np.max(c.body_extent[b])))
+        soft = np.linalg.norm(J) * dt / (max(m_b, 1e-9) * max(dv, 1e-6))
         span = float(duration) if duration > 0.0 else min(max(dt, soft), max(p.contact_max, dt))
         self._contact.append([b, J / span, point, span])
         self._contact_end = span
@@ -471,6 +499,11 @@ class ImpactResponse:
         last = self._sim1_count - self.library.window        # the last start with a whole window
         k1 = min(max(k0, min(k1, last)), last)
         k0 = min(k0, k1)
+        if self._is_tap():
+            # the hit moved the body too little to leave the clip: back onto it from here (no search)
+            self.tap = True
+            self._recoil = max(self.time, 1e-9)
+            return
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
         g = self.char.gait
@@ -486,6 +519,19 @@ class ImpactResponse:
         self.phase = "transition"
         if self.time + self._frame_dt * 0 >= self._handoff - 1e-9:
             self._arm(0.0)
+
+    def _is_tap(self) -> bool:
+        """Simulation 1 keeps the root within ``tap_move`` of the creature's height of where it
+        was at the hit and turns it less than ``tap_turn`` over the whole lookahead."""
+        p = self.params
+        if p.tap_move <= 0.0:
+            return False
+        n = self._sim1_count
+        pos, rot = self._sim1_pos[:n, 0], self._sim1_rot[:n, 0]
+        move = float(np.linalg.norm(pos - pos[0], axis=1).max())
+        d = np.abs(rot @ rot[0])
+        turn = float(2.0 * np.arccos(min(float(d.min()), 1.0)))
+        return move < p.tap_move * self.char.creature.height and turn < p.tap_turn
 
     def _transition_targets(self) -> None:
         """theta_d: the interrupted pose slerped with ease-in/out toward the found clip's

@@ -56,6 +56,7 @@ GAIT_COMMANDS = (("walk", 0.5, 0.0, 0.0), ("walk", 1.0, 0.0, 0.0), ("walk", -0.5
                  ("walk", 0.8, 0.0, -1.0), ("sneak", 0.5, 0.0, 0.0), ("run", 1.5, 0.0, 0.0),
                  ("run", 2.0, 0.0, 0.0), ("run", 1.5, 0.0, 0.8), ("run", 1.5, 0.0, -0.8))
 CROWD = 48           # characters ticked together
+FLIP_TURN = 0.7      # rad a body turns between two library frames (1/30 s, 21 rad/s): a flip, not motion
 
 
 @dataclass(frozen=True)
@@ -259,6 +260,18 @@ class MotionLibrary:
         # a window may start at s when s .. s + window - 1 are frames of the same entry
         end_ok = np.zeros(F, bool)
         end_ok[: F - window + 1] = self.clip_of[: F - window + 1] == self.clip_of[window - 1:]
+        # A start is kept only when its entry plays from there to its end without a flip on this
+        # creature (a body turning more than FLIP_TURN between two library frames, 0.5 rad per
+        # 60 Hz frame): re-entering a clip that flips would show the flip (the centipede's
+        # stagger_right swings a leg past full reach and turns it 2.8 rad in one frame).
+        turn = _step_turns(self.rot)
+        flip = np.zeros(F, bool)
+        flip[1:] = (turn > FLIP_TURN) & (self.clip_of[1:] == self.clip_of[:-1])
+        last_flip = np.full(len(keep), -1, np.int64)
+        for f in np.flatnonzero(flip):
+            last_flip[self.clip_of[f]] = f
+        self.flipped = last_flip >= 0          #: per entry: it flips somewhere on this creature
+        end_ok &= np.arange(F) >= last_flip[self.clip_of]
         self.valid = end_ok
         self.yaw, self.xy = yaw_of(creature, self.rot[:, 0], self.pos[:, 0])
         w = body_weights(creature)
@@ -285,6 +298,12 @@ class MotionLibrary:
     @property
     def frames(self) -> int:
         return int(self.pos.shape[0])
+
+
+def _step_turns(rot: np.ndarray) -> np.ndarray:
+    """(F - 1,) the largest angle any body turns between consecutive frames, rad."""
+    d = np.abs(np.einsum("fbk,fbk->fb", rot[1:], rot[:-1]))
+    return 2.0 * np.arccos(np.minimum(d.min(axis=1), 1.0))
 
 
 _LIBS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

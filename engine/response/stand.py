@@ -34,6 +34,13 @@ class StandParams:
     root_zeta: float = 1.0
     tol: float = 0.02            # a support's lowest feature within this fraction of the height of the ground
     press: float = 0.7           # a support's pressure centre moves up to this fraction of its features' reach
+    carry: bool = False          # the weight-carrying joint torques (False: the root's balance wrench alone)
+    # The supports' moment reaches at least this times the rest stance's lean (how far the
+    # centre of mass stands from the supports' centre in the rest pose): a creature whose
+    # animation stands with its weight ahead of small feet (random 3: 4.3 cm ahead of 1 cm
+    # feet) is held as the animation holds it, not toppled by a tap.
+    lean_margin: float = 1.5
+    ref_height: float = 1.75     # m: com_hz and root_hz as given at this height and above
 
 
 class Stander:
@@ -68,8 +75,13 @@ class Stander:
         prm = model.arrays.params
         self.tparams = np.array([prm[PK.P_TERRAIN_X0], prm[PK.P_TERRAIN_Y0], prm[PK.P_TERRAIN_CELL]])
         self.gravity = np.array(prm[PK.P_GRAVITY_X:PK.P_GRAVITY_Z + 1])
-        wc, wr = 2 * math.pi * p.com_hz, 2 * math.pi * p.root_hz
-        self.gains = np.array([wc * wc, 2 * p.com_zeta * wc, wr * wr, 2 * p.root_zeta * wr, p.tol * self.height, 1.0])
+        # frequencies scale as 1/sqrt(height) below ref_height (see ImpactParams.servo_height): a
+        # body tipping on its feet falls at sqrt(g / L), and 2 Hz held a human but not a 15 cm creature
+        self.hz_scale = math.sqrt(max(p.ref_height / max(self.height, 1e-6), 1.0)) if p.ref_height > 0 else 1.0
+        wc, wr = 2 * math.pi * p.com_hz * self.hz_scale, 2 * math.pi * p.root_hz * self.hz_scale
+        self.rest_lean = _rest_lean(model, self.body_foot, p.tol * self.height)
+        self.gains = np.array([wc * wc, 2 * p.com_zeta * wc, wr * wr, 2 * p.root_zeta * wr, p.tol * self.height, 1.0,
+                               1.0 if p.carry else 0.0, p.lean_margin * self.rest_lean])
         self.ref = np.zeros(7)
         self.scratch = np.zeros((n, 8))
         self.support = np.zeros((n, 4))
@@ -93,6 +105,31 @@ class Stander:
     @property
     def supports(self) -> int:
         return int(self.out[0])
+
+
+def _rest_lean(model: PhysicsModel, body_foot: np.ndarray, tol: float) -> float:
+    """Ground-plane distance (m) from the rest pose's supports' centre (the foot bodies with a
+    feature within ``tol`` of the lowest one; every body's when no foot is that low) to its
+    centre of mass."""
+    fb = np.asarray(model.feat_body, dtype=np.int64)
+    if fb.size == 0:
+        return 0.0
+    pos = np.asarray(model.body_rest_pos, float)
+    rot = np.asarray(model.body_rest_rot, float)
+    loc = np.asarray(model.feat_local, float)
+    q = rot[fb]
+    w, u = q[:, :1], q[:, 1:]
+    t = 2.0 * np.cross(u, loc)
+    pts = pos[fb] + loc + w * t + np.cross(u, t)
+    low = pts[:, 2] - np.asarray(model.feat_radius, float)
+    near = low < low.min() + tol
+    on_foot = near & (body_foot[fb] != 0)
+    pick = on_foot if on_foot.any() else near
+    bodies = np.unique(fb[pick])
+    centre = np.array([pts[pick & (fb == b), :2].mean(axis=0) for b in bodies]).mean(axis=0)
+    mass = np.asarray(model.body_mass, float)
+    com = (mass[:, None] * pos[:, :2]).sum(axis=0) / mass.sum()
+    return float(np.linalg.norm(com - centre))
 
 
 __all__ = ["StandParams", "Stander"]
