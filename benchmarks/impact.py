@@ -1,7 +1,8 @@
 """Impact response: search and decision time, per-tick cost during a response, success
 of random hits (one, two and five in series) on library and random creatures.
 
-    .venv/bin/python benchmarks/impact.py [--library 6] [--random 5] [--hits 4] [--seed 0]
+    .venv/bin/python benchmarks/impact.py [--library 6] [--skip 0] [--random 5] [--first-seed 0] [--hits 4]
+        [--seed 0] [--stand on|off|lookahead|live]
 
 A response succeeds when the output stays finite, the character is back on animation
 (``reacting`` False) within 2 s after the last hit, the hand-off ticks (to physics, back
@@ -161,9 +162,11 @@ def search_scaling(lib, feats):
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--library", type=int, default=6, help="library creatures (first N by name)")
-    ap.add_argument("--random", type=int, default=5, help="random creatures (seeds 0..N-1)")
+    ap.add_argument("--random", type=int, default=5, help="random creatures (seeds --first-seed ..)")
     ap.add_argument("--hits", type=int, default=4, help="single hits per creature")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--first-seed", type=int, default=0, help="random creatures' first seed")
+    ap.add_argument("--skip", type=int, default=0, help="library creatures: skip the first N by name")
     ap.add_argument("--stand", choices=("on", "off", "lookahead", "live"), default="on",
                     help="the standing controller as ImpactParams has it (on), in none, in the lookahead "
                          "only, or in both (live)")
@@ -171,13 +174,13 @@ def main() -> None:
                     help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
-    paths = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))[: args.library]
+    paths = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))[args.skip: args.skip + args.library]
     if args.creatures is not None:
         paths = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in args.creatures]
     params = {"on": None, "off": ImpactParams(stand=None),
               "lookahead": ImpactParams(stand_live=False), "live": ImpactParams(stand_live=True)}[args.stand]
-    creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s))
-                                                           for s in range(args.random)]
+    seeds = range(args.first_seed, args.first_seed + args.random)
+    creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s)) for s in seeds]
     hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
     t = time.perf_counter()
     lib = library_for(hum)

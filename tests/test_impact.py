@@ -295,3 +295,31 @@ def test_no_reentry_before_a_flip_of_the_clip_on_this_creature():
     r = _run(ch, [(0, "trunk9", J)])
     assert r["finite"] and r["back"] is not None and r["back"] <= 2.0, r
     assert r["maxrot"] < 0.5, r
+
+
+def test_a_hovering_creature_is_not_dropped():
+    """A fish hovers in its rest pose: its response has no gravity (before, a 0.4 N s tap on a
+    fin dropped it 0.2 m in 0.2 s and re-entered fall_left_low, ending 5 cm to one side)."""
+    from engine.response.impact import hovers
+
+    ch = _standing("fish")
+    assert hovers(ch.creature) and not hovers(_CHARS.get("humanoid") or _creature("humanoid"))
+    p0 = ch.world_positions[0].copy()
+    r = _run(ch, [(0, "pectoralfin_l", (0.0, -0.4, 0.0))], seconds=1.5)
+    assert ch.response.tap, ch.response.clip
+    assert r["finite"] and r["back"] is not None and r["maxrot"] < 0.5, r
+    assert np.linalg.norm(ch.world_positions[0] - p0) < 0.01 * ch.creature.height
+
+
+def test_the_found_clip_is_placed_on_the_live_body():
+    """A push slides the centipede 0.36 m in the live simulation (friction 0.5) while the
+    lookahead (friction 1.0) stands: the found clip is placed on the live root, so the centipede
+    stays where it was pushed (before, the hand-off's offset slid it back, 0.41 m against the
+    push, cos -0.94)."""
+    ch = _standing("centipede")
+    J = 4.4 * np.array([np.cos(np.radians(-116)), np.sin(np.radians(-116)), 0.0])
+    r = _run(ch, [(0, "trunk7", J)])
+    assert r["finite"] and r["back"] is not None and r["back"] <= 2.0 and r["maxrot"] < 0.5, r
+    disp = r["disp"][:2]
+    assert np.linalg.norm(disp) > 0.1, disp
+    assert disp @ J[:2] / (np.linalg.norm(disp) * np.linalg.norm(J[:2])) > 0.9, disp

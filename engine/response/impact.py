@@ -37,6 +37,17 @@ Choices where the paper is silent (see ``../shared/research/impact.md`` 1.9):
       the displayed pose and its velocity are continuous at the hand-off and nothing has to
       be simulated ahead of display.
     * Window: 6 frames at 30 Hz (0.2 s); weights in ``engine.response.search``.
+    * The servos' stance side is anchored (a loaded foot counts as immovable in a servo's
+      inertia) and their frequency rises as 1/sqrt(height) below ``servo_height``: with the
+      paper's single gain pair on each joint's outboard inertia, thin legs under heavy bodies
+      and small creatures sagged into a fall within the reaction delay, so every tap on them
+      was answered with a fall (``servo_hz_of``; ``engine.physics.WorldSettings.servo_anchor``).
+    * A creature that hovers in its rest pose (``hovers``: a fish) reacts without gravity.
+    * The found clip is placed on Simulation 2's root at the hand-off, not on Simulation 1's
+      at the match (friction 0.5 against 1.0: the live body slides where the lookahead stood).
+    * A tap (Simulation 1's root stays near where it was) is not searched: the pose blends
+      back onto the clip that kept playing (``tap_move``, ``tap_turn``). The search has no
+      prior for staying in the interrupted clip, and near a held pose every window is close.
 """
 
 from __future__ import annotations
@@ -60,7 +71,7 @@ from engine.physics import (
 )
 from engine.physics.world import PhysicsState, rotvec_between
 from engine.response.library import RATE, WINDOW, MotionLibrary, library_for
-from engine.response.search import SearchResult, search, window_features
+from engine.response.search import SearchResult, search, window_features, yaw_of
 from engine.response.stand import Stander, StandParams
 
 PHASES = ("idle", "burst", "transition", "blend", "settle")
@@ -102,10 +113,10 @@ class ImpactParams:
     # (the first version: unhit, the humanoid's lookahead fell by 1 s, so taps read as falls).
     stand: StandParams | None = StandParams()
     # the controller in Simulation 2 too (False: the lookahead only). Measured with
-    # benchmarks/impact.py --library 3 --random 2 --hits 4 (65 hits; single / train of 2 / of 5):
-    # lookahead only 0.65 / 0.80 / 0.80, both simulations 0.55 / 0.40 / 0.00 (hand-back turns
-    # median 0.11 against 0.20 rad). With it off, the humanoid's hits in series in
-    # tests/test_impact.py turn ears and eyes 0.65-0.78 rad in the blend out of a fall (xfail).
+    # benchmarks/impact.py --library 6 --random 5 --hits 4 (143 hits; single / train of 2 / of 5)
+    # with anchored servos and the balance wrench alone (s31): lookahead only 0.909 / 0.955 / 0.636,
+    # both 0.909 / 0.955 / 0.545; with the old weight-carrying torques (s24, --library 3 --random 2)
+    # both simulations were far worse (0.55 / 0.40 / 0.00 against 0.65 / 0.80 / 0.80).
     stand_live: bool = False
     servo_anchor: bool | str = True
     # A tap: Simulation 1's root stays within tap_move of the height of where it was and turns
@@ -136,13 +147,30 @@ def _models(creature, p: ImpactParams):
         locked = tuple(creature.body_names[b] for b in range(1, creature.nbody)
                        if not has_child[b] and vol[b] < 0.01 * vol.sum())
         opts = CreatureBodyOptions(servo_hz=servo_hz_of(creature, p), servo_zeta=p.servo_zeta, locked=locked)
+        # A creature whose rest pose hovers (a fish, a jellyfish, random creatures with no legs
+        # that touch the ground) is held up by what the animation does not model (water, its
+        # wings): its response runs without gravity (with it, a tap on a fish's fin dropped it
+        # 0.2 m in 0.2 s and every hit was answered with a fall to the ground).
+        gravity = (0.0, 0.0, 0.0) if hovers(creature) else WorldSettings().gravity
         out = []
         for mu in (p.sim1_mu, p.sim2_mu):
             foot = ContactSettings(hz=DEFAULT_FOOT.hz, zeta=DEFAULT_FOOT.zeta, mu=mu, spin_mu=DEFAULT_FOOT.spin_mu)
-            out.append(model_from_creatures(creature, options=opts,
-                                            settings=WorldSettings(foot=foot, servo_anchor=p.servo_anchor)))
+            out.append(model_from_creatures(creature, options=opts, settings=WorldSettings(
+                foot=foot, servo_anchor=p.servo_anchor, gravity=gravity)))
         hit = per[key] = tuple(out)
     return hit
+
+
+HOVER = 0.02     # a rest pose whose lowest box corner is this fraction of the height above the ground hovers
+
+
+def hovers(creature) -> bool:
+    """The creature's rest pose stands clear of the ground (its lowest box corner more than
+    ``HOVER`` of its height above it): it swims or flies, and its response has no gravity."""
+    from engine.channels.modes import ground_height
+
+    low = min(float(creature.body_rest_pos[b, 2]) - ground_height(creature, b) for b in range(creature.nbody))
+    return low > HOVER * float(creature.height)
 
 
 def servo_hz_of(creature, p: ImpactParams) -> float:
@@ -241,6 +269,7 @@ class ImpactResponse:
         self._off_angvel = np.zeros((n, 3))
         self._blend_t = 0.0
         self._handoff = 0.0
+        self._place_yaw = 0.0
         rate, window = (RATE, WINDOW) if library is None else (library.rate, library.window)
         self._frame_dt = 1.0 / rate
         self._recoil = 0.0
@@ -553,10 +582,22 @@ class ImpactResponse:
     def _arm(self, dt: float) -> None:
         """One tick before the hand-off: the found clip starts (no fade, ``handoff_fade``: the
         pose is the library's, the one the search matched), placed so its root at the matched time sits
-        on Simulation 1's root at the match (yaw and ground-plane translation)."""
+        on the live simulation's root now (yaw and ground-plane translation)."""
         ch = self.char
         res = self.match
-        ch.set_placement(position=res.place_pos, heading=res.place_yaw, teleport=True)
+        # The clip is placed on the live simulation's root as it is now (yaw and ground-plane
+        # position), not on Simulation 1's at the match: the two differ by what friction 0.5
+        # against 1.0 and the servos' new targets did since the hit (a centipede slid 0.36 m
+        # along a push in Simulation 2, stood in Simulation 1, and the hand-off's offset then
+        # slid it back to where it was hit from).
+        lib = self.library
+        s = res.lib_frame
+        yaw2, xy2 = yaw_of(self.char.creature, self.sim2.body_rot[:1], self.sim2.body_pos[:1])
+        self._place_yaw = yaw = float(yaw2[0] - lib.yaw[s])
+        c, sn = math.cos(yaw), math.sin(yaw)
+        lx, ly = lib.xy[s]
+        place = np.array([xy2[0, 0] - (c * lx - sn * ly), xy2[0, 1] - (sn * lx + c * ly), 0.0])
+        ch.set_placement(position=place, heading=yaw, teleport=True)
         e = self.entry
         if e.animation is None:          # a gait entry: the character's own locomotion goes on
             self._armed = True
@@ -585,7 +626,7 @@ class ImpactResponse:
             i0 = int(np.searchsorted(lib.clip_of, res.clip))
             i1 = int(np.searchsorted(lib.clip_of, res.clip, side="right")) - 1
             dc = lib.pos[i1, 0, :2] - lib.pos[i0, 0, :2]
-            c, sn = math.cos(res.place_yaw), math.sin(res.place_yaw)
+            c, sn = math.cos(self._place_yaw), math.sin(self._place_yaw)
             self._settle_d = np.array([c * dc[0] - sn * dc[1], sn * dc[0] + c * dc[1], 0.0])
             self._settle_at = self._handoff + (self.clip.length - self.clip_time) / e.speed - 1.5 * dt
         elif not self.clip.loop and self._resume is not None and self._resume is not self.clip:
@@ -655,7 +696,7 @@ class ImpactResponse:
             pass
         elif f > 0 and lib.clip_of[f - 1] == lib.clip_of[f]:
             v = (lib.pos[f] - lib.pos[f - 1]) * lib.rate
-            c, sn = math.cos(self.match.place_yaw), math.sin(self.match.place_yaw)
+            c, sn = math.cos(self._place_yaw), math.sin(self._place_yaw)
             anim_vel = np.stack([c * v[:, 0] - sn * v[:, 1], sn * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
         else:
             anim_vel = np.zeros_like(anim_pos)
@@ -716,4 +757,5 @@ def _rotate_by_rotvec(rv: np.ndarray, q: np.ndarray) -> None:
     q /= np.linalg.norm(q, axis=1)[:, None]
 
 
-__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES", "chain_bodies", "chain_mass"]
+__all__ = ["ImpactError", "ImpactParams", "ImpactResponse", "PHASES", "chain_bodies", "chain_mass", "hovers",
+           "servo_hz_of"]

@@ -1,6 +1,6 @@
-"""The standing controller of the response's simulations: gravity compensation, the weight
-carried to the supports, and a balance term (the kernel and its derivation are in
-``engine.response._stand``).
+"""The standing controller of the response's simulations: a balance wrench on the root and,
+with ``StandParams(carry=True)``, gravity compensation carrying the weight to the supports
+as joint torques (the kernel and its derivation are in ``engine.response._stand``).
 
     st = Stander(model)                 # one per PhysicsModel of one creature, arrays made once
     st.reset()                          # at a hit: hold the centre of mass and root from the next frame
@@ -11,6 +11,11 @@ a held pose on its feet is an inverted pendulum. Measured unhit on the lookahead
 (Simulation 1, the root's height as a fraction of the creature's height after 1 s): the
 humanoid 0.56 -> 0.34, the bat 0.50 -> 0.09, random creature 0 0.50 -> 0.18. So every tap
 read as a fall. With this controller the same runs stand (see ``tests/test_impact.py``).
+
+Since s31 the weight is carried by the servos themselves (anchored stance sides,
+``engine.physics.WorldSettings.servo_anchor``) and ``carry`` is off: its joint torques,
+held for a frame, spun a 15 cm creature's 0.2 g feet at thousands of rad/s (the same on a
+bat's thumb and the humanoid's jaw once the stance servos were stiff).
 """
 
 from __future__ import annotations
