@@ -278,7 +278,7 @@ def test_a_tap_goes_back_onto_the_clip_without_a_search():
 
 def test_no_reentry_before_a_flip_of_the_clip_on_this_creature():
     """The centipede's stagger_right swings a leg past full reach and turns it 2.8 rad in a
-    frame: the library keeps no start of it before that flip, and a side hit that re-entered it
+    frame: the library never re-enters an entry that flips, and a side hit that re-entered it
     (s31: leg6_r 2.65 rad/frame in the blend) hands back with no flip."""
     from engine.response.library import FLIP_TURN
 
@@ -289,8 +289,10 @@ def test_no_reentry_before_a_flip_of_the_clip_on_this_creature():
     turn = 2.0 * np.arccos(np.minimum(d.min(axis=1), 1.0))
     for s in lib.starts[::7]:
         e = lib.clip_of[s]
-        end = int(np.searchsorted(lib.clip_of, e, side="right"))
-        assert turn[s:end - 1].max(initial=0.0) <= FLIP_TURN
+        at = np.flatnonzero(lib.clip_of == e)
+        assert turn[at[0]:at[-1]].max(initial=0.0) <= FLIP_TURN
+    assert not any(lib.entries[lib.clip_of[s]].animation.name == "stagger_right" for s in lib.starts
+                   if lib.entries[lib.clip_of[s]].animation is not None)
     J = 5.0 * np.array([np.cos(np.radians(-156)), np.sin(np.radians(-156)), 0.0])
     r = _run(ch, [(0, "trunk9", J)])
     assert r["finite"] and r["back"] is not None and r["back"] <= 2.0, r
@@ -323,3 +325,33 @@ def test_the_found_clip_is_placed_on_the_live_body():
     disp = r["disp"][:2]
     assert np.linalg.norm(disp) > 0.1, disp
     assert disp @ J[:2] / (np.linalg.norm(disp) * np.linalg.norm(J[:2])) > 0.9, disp
+
+
+def test_a_hit_during_the_blend_starts_from_closed_joints():
+    """The hand-off's blend offsets each body on its own, which opens the joints (a crawler's
+    pelvis joint 4.5 cm, 40% of its height, in a train of hits). A hit in the blend starts the
+    physics from the pose joined at its joints (rotations kept, placed where the pose's mass
+    was) and shows the gaps decaying: the first physical frame neither snaps the joints shut
+    nor jumps."""
+    from engine.physics.world import joint_separation
+
+    ch = _standing("crawler")
+    h = ch.creature.height
+    # benchmarks/impact.py's crawler train of five (the last hit is the one in the blend)
+    train = {0: ("tail5", 2.9, 131), 22: ("hindthigh_l", 0.3, 50), 52: ("pelvis", 9.2, 134),
+             78: ("tail4", 15.2, 28)}
+    for k in range(108):
+        if k in train:
+            b, m, deg = train[k]
+            ch.hit(b, m * np.array([np.cos(np.radians(deg)), np.sin(np.radians(deg)), 0.0]))
+        ch.tick(DT)
+    r = ch.response
+    assert r.phase == "blend"
+    pos0, rot0 = ch.world_positions.copy(), ch.world_rotations.copy()
+    ch.hit("tail4", (0.0, 0.2, 0.0))
+    assert float(np.max(joint_separation(r.model2, r.sim2))) < 1e-6 * h
+    gap = float(np.abs(r._entry_res).max())
+    assert gap > 0.1 * h, gap                   # measured 0.045 m: the pose was open
+    ch.tick(DT)
+    assert np.linalg.norm(ch.world_positions - pos0, axis=1).max() < 0.05 * h + 0.1 * gap, gap
+    assert np.linalg.norm(rotvec_between(rot0, ch.world_rotations), axis=1).max() < 0.3

@@ -260,18 +260,17 @@ class MotionLibrary:
         # a window may start at s when s .. s + window - 1 are frames of the same entry
         end_ok = np.zeros(F, bool)
         end_ok[: F - window + 1] = self.clip_of[: F - window + 1] == self.clip_of[window - 1:]
-        # A start is kept only when its entry plays from there to its end without a flip on this
-        # creature (a body turning more than FLIP_TURN between two library frames, 0.5 rad per
-        # 60 Hz frame): re-entering a clip that flips would show the flip (the centipede's
-        # stagger_right swings a leg past full reach and turns it 2.8 rad in one frame).
+        # An entry that flips anywhere on this creature (a body turning more than FLIP_TURN
+        # between two library frames) is never re-entered: playing it would show the flip (the
+        # centipede's stagger_right swings a leg past full reach and turns it 2.8 rad in one
+        # frame). The whole entry, not only its starts before the flip: played live from a
+        # later start, the IK took the other branch again 0.3 s on (s31).
         turn = _step_turns(self.rot)
         flip = np.zeros(F, bool)
         flip[1:] = (turn > FLIP_TURN) & (self.clip_of[1:] == self.clip_of[:-1])
-        last_flip = np.full(len(keep), -1, np.int64)
-        for f in np.flatnonzero(flip):
-            last_flip[self.clip_of[f]] = f
-        self.flipped = last_flip >= 0          #: per entry: it flips somewhere on this creature
-        end_ok &= np.arange(F) >= last_flip[self.clip_of]
+        self.flipped = np.zeros(len(keep), bool)   #: per entry: it flips somewhere on this creature
+        self.flipped[self.clip_of[flip]] = True
+        end_ok &= ~self.flipped[self.clip_of]
         self.valid = end_ok
         self.yaw, self.xy = yaw_of(creature, self.rot[:, 0], self.pos[:, 0])
         w = body_weights(creature)
