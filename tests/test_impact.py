@@ -314,11 +314,15 @@ def test_a_hovering_creature_is_not_dropped():
 
 
 def test_the_found_clip_is_placed_on_the_live_body():
-    """A push slides the centipede 0.36 m in the live simulation (friction 0.5) while the
-    lookahead (friction 1.0) stands: the found clip is placed on the live root, so the centipede
-    stays where it was pushed (before, the hand-off's offset slid it back, 0.41 m against the
-    push, cos -0.94)."""
+    """A push slides the centipede 0.36 m in the live simulation (friction 0.5, no balance
+    wrench there: stand_live=False) while the lookahead (friction 1.0) stands: the found clip is
+    placed on the live root, so the centipede stays where it was pushed (before, the hand-off's
+    offset slid it back, 0.41 m against the push, cos -0.94). With the default stand_live the
+    live balance holds it (1.4 cm)."""
+    from engine.response.impact import ImpactResponse
+
     ch = _standing("centipede")
+    ch.response = ImpactResponse(ch, ImpactParams(stand_live=False))
     J = 4.4 * np.array([np.cos(np.radians(-116)), np.sin(np.radians(-116)), 0.0])
     r = _run(ch, [(0, "trunk7", J)])
     assert r["finite"] and r["back"] is not None and r["back"] <= 2.0 and r["maxrot"] < 0.5, r

@@ -78,10 +78,11 @@ def test_punch_lands_victim_reacts_attacker_recoils():
     assert back_v is not None and back_v < 2.0
     assert turn_a < 0.5 and turn_v < 0.5                          # measured 0.33 / 0.25 rad per frame
     # pushed away from the attacker: the victim's root sways back during the reaction. 10.6 N s on
-    # spine2 is 0.19 m/s on 57 kg: with the stance servos anchored (ImpactParams.servo_anchor) the
-    # root sways 0.024 m back and the response is a tap that ends where it stood (0.0005 m); with
-    # the feet held but the legs soft, 0.064 m back and 0.011 m at the end; with sliding feet, more
-    assert reach > 0.015, reach
+    # spine2 is 0.19 m/s on 57 kg: with the stance servos anchored (ImpactParams.servo_anchor) and
+    # the balance wrench live too, the root sways 0.0074 m back (0.024 m with it in the lookahead
+    # only) and the response is a tap that ends where it stood; with the feet held but the legs
+    # soft, 0.064 m back and 0.011 m at the end; with sliding feet, more
+    assert reach > 0.004, reach
     assert abs(moved[0]) < 0.02, moved
 
 

@@ -113,12 +113,14 @@ class ImpactParams:
     # fades out over the transition, so a found fall is not held up). None: the servos alone
     # (the first version: unhit, the humanoid's lookahead fell by 1 s, so taps read as falls).
     stand: StandParams | None = StandParams()
-    # the controller in Simulation 2 too (False: the lookahead only). Measured with
-    # benchmarks/impact.py --library 6 --random 5 --hits 4 (143 hits; single / train of 2 / of 5)
-    # with anchored servos and the balance wrench alone (s31): lookahead only 0.909 / 0.955 / 0.636,
-    # both 0.909 / 0.955 / 0.545; with the old weight-carrying torques (s24, --library 3 --random 2)
-    # both simulations were far worse (0.55 / 0.40 / 0.00 against 0.65 / 0.80 / 0.80).
-    stand_live: bool = False
+    # the controller in Simulation 2 too (False: the lookahead only). Both, since s31: the lookahead
+    # predicts with it, so the live simulation must run it to do what was predicted (a humanoid
+    # shoved at 1.7 m/s stood in the lookahead, fell 0.9 m in the live simulation without it, and
+    # the blend stood it up into 'stretch' in 0.5 s). benchmarks/impact.py, three sets (the first
+    # 6 library creatures + random 0-4; the next 8 + random 100-105; random 200-211), 148 single
+    # hits, 74 trains of 2, 37 of 5: both 0.946 / 0.946 / 0.946, the lookahead only 0.959 / 0.932 /
+    # 0.892. (With the old weight-carrying torques, s24, both were far worse.)
+    stand_live: bool = True
     servo_anchor: bool | str = True
     # A tap: Simulation 1's root stays within tap_move of the height of where it was and turns
     # less than tap_turn (rad) over the lookahead. The response then blends back onto the
