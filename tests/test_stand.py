@@ -75,7 +75,7 @@ def test_lookahead_stands_unhit(name):
 def test_anchored_stance_servos_hold_the_weight(name):
     """Without the controller, servos whose stance side is anchored (WorldSettings.servo_anchor)
     hold the unhit pose up; on the feet's own inertia they do not (the bat 0.50 -> 0.09 of its
-    height in 1 s, random 3 0.57 -> 0.16, measured s31)."""
+    height in 1 s, random 3 0.57 -> 0.14, measured s31)."""
     c = _creature(name)
     held, _, _ = _lookahead(c, stand=False, params=ImpactParams(stand=None))
     loose, _, _ = _lookahead(c, stand=False, params=ImpactParams(stand=None, servo_anchor=False, servo_height=0.0))
