@@ -250,8 +250,10 @@ class ImpactResponse:
         depth = np.zeros(c.nbody, int)
         for b in range(1, c.nbody):
             depth[b] = depth[int(m2.joint_parent[bj[b]])] + 1
-        self._join_levels = [np.flatnonzero(depth == d) for d in range(1, int(depth.max()) + 1)]
-        self._join_joint = bj
+        jpar, jap, jac = (np.asarray(a) for a in (m2.joint_parent, m2.joint_anchor_parent, m2.joint_anchor_child))
+        #: per depth below the root: (bodies, their parents, joint point in the parent, in the body)
+        self._join_levels = [(bs, jpar[bj[bs]], jap[bj[bs]], jac[bj[bs]])
+                             for bs in (np.flatnonzero(depth == d) for d in range(1, int(depth.max()) + 1))]
         self._join_w = np.asarray(m2.body_mass, float) / float(np.sum(m2.body_mass))
         self._entry_res = np.zeros((c.nbody, 3))
         self._entry_t = 0.0
@@ -653,7 +655,6 @@ class ImpactResponse:
             # A stagger ends in the rest pose moved by d (animations/reactions): when it ends the
             # placement moves by d and what played before goes on from there, with no slide back
             # (clips carry no root motion). d from the library's frames of this entry.
-            lib = self.library
             i0 = int(np.searchsorted(lib.clip_of, res.clip))
             i1 = int(np.searchsorted(lib.clip_of, res.clip, side="right")) - 1
             dc = lib.pos[i1, 0, :2] - lib.pos[i0, 0, :2]
@@ -693,13 +694,9 @@ class ImpactResponse:
     def _joined(self, pos, rot) -> np.ndarray:
         """Body positions with every physics joint closed, for the rotations ``rot``: each body
         hung from its parent's joint point, the whole placed where the pose's mass was."""
-        m = self.model2
         out = np.array(pos, dtype=float)
-        jp, ap, ac, bj = m.joint_parent, m.joint_anchor_parent, m.joint_anchor_child, self._join_joint
-        for bs in self._join_levels:
-            js = bj[bs]
-            ps = np.asarray(jp)[js]
-            out[bs] = out[ps] + _qrot(rot[ps], np.asarray(ap)[js]) - _qrot(rot[bs], np.asarray(ac)[js])
+        for bs, ps, ap, ac in self._join_levels:
+            out[bs] = out[ps] + _qrot(rot[ps], ap) - _qrot(rot[bs], ac)
         out += self._join_w @ (np.asarray(pos) - out)
         return out
 
