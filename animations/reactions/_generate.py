@@ -14,8 +14,14 @@ def key(t, v=None, aa=None, flat=False):
     return "        - {t: %s, v: [%s]}" % (t, ", ".join(str(x) for x in v))
 
 def channel(name, select, pos=None, rot=None, posspec="{mode: rest, scale: creature_size}",
-            rotspec="{mode: rest}", priority=None, extra="", flat=None):
+            rotspec="{mode: rest}", priority=None, extra="", flat=None, mirror=True):
+    """mirror=False: the keys are directions in character space for every selected body (a
+    step toward the push); by default right-side bodies specialize mirrored (their y keys
+    point outward, as the left side's do), which sent the right feet of a stagger to the
+    left away from the push and crossed the feet of a fall to the side."""
     out = [f"  - name: {name}", f"    select: {select}"]
+    if not mirror:
+        out.append("    mirror: false")
     if pos is not None:
         out.append(f"    position: {posspec}")
     if rot is not None:
@@ -48,6 +54,8 @@ FRONT = "{type: foot, x: front, y_space: setspace}"
 GRASP = "{type: grasper}"
 SPINE = "{type: spine}"
 FOOTSPEC = "{mode: rest, scale: limb_length}"
+FOOTSPEC_LOW = "{mode: rest, scale: limb_length, sagittal: true}"   # y: share of the way to the midline
+LOW_TUCK = 0.12
 SIZESPEC = "{mode: rest, scale: creature_size}"
 LIFT = 0.12     # step height, limb lengths
 
@@ -90,11 +98,13 @@ def stagger(d):
         # rest mode is character space: the spine's keys carry the root's lean
         channel("spine", SPINE,
                 rot=[(0.0, lean(0)), (0.12, lean(20)), (0.45, lean(4)), (0.9, lean(1)), (T, lean(0))]),
-        channel("lead_feet", first, pos=foot(0.05, 1.25), rot=None, posspec=SIZESPEC, flat=True),
-        channel("other_feet", second, pos=foot(0.3, 0.8), rot=None, posspec=SIZESPEC, flat=True),
+        channel("lead_feet", first, pos=foot(0.05, 1.25), rot=None, posspec=SIZESPEC, flat=True, mirror=False),
+        channel("other_feet", second, pos=foot(0.3, 0.8), rot=None, posspec=SIZESPEC, flat=True, mirror=False),
+        # the graspers come up and out for balance: back against the push along x, and
+        # outward (mirrored keys: +y is outward on both sides) for a push to the side
         channel("arms", GRASP, posspec="{mode: rest, scale: limb_length}",
-                pos=[(0.0, [0, 0, 0]), (0.2, [r(-ux * 0.15), r(-uy * 0.15), 0.25]), (0.6, [r(-ux * 0.05), r(-uy * 0.05), 0.1]),
-                     (T, [0, 0, 0])]),
+                pos=[(0.0, [0, 0, 0]), (0.2, [r(-ux * 0.15), r(abs(uy) * 0.15), 0.25]),
+                     (0.6, [r(-ux * 0.05), r(abs(uy) * 0.05), 0.1]), (T, [0, 0, 0])]),
     ]
     return clip(f"stagger_{d}", f"Stagger {d}: pushed toward the {d}, the body leans and the feet step that way "
                 f"(leading feet past, the others short, then together) and it ends {root_step} creature sizes "
@@ -105,12 +115,11 @@ def brace():
         channel("root", ROOT, priority=1, posspec="{mode: rest, ground: true}",
                 pos=[(0.0, [0, 0, 0]), (0.25, [0, 0, 0.22]), (0.8, [0, 0, 0.22]), (1.3, [0, 0, 0])]),
         channel("spine", SPINE, rot=[(0.0, [0, 1, 0, 0]), (0.25, [0, 1, 0, 12]), (0.8, [0, 1, 0, 12]), (1.3, [0, 1, 0, 0])]),
-        channel("left_feet", LEFT, posspec=FOOTSPEC,
+        # every foot steps outward: the channel mirrors, so +y is outward on both sides
+        # (a right-feet channel keyed -y stepped the right feet inward, across the midline)
+        channel("feet", FEET, posspec=FOOTSPEC,
                 pos=[(0.0, [0, 0, 0]), (0.1, [0, 0.07, LIFT]), (0.22, [0, 0.14, 0]), (0.9, [0, 0.14, 0]),
                      (1.05, [0, 0.07, LIFT * 0.6]), (1.2, [0, 0, 0]), (1.3, [0, 0, 0])]),
-        channel("right_feet", RIGHT, posspec=FOOTSPEC,
-                pos=[(0.0, [0, 0, 0]), (0.1, [0, -0.07, LIFT]), (0.22, [0, -0.14, 0]), (0.9, [0, -0.14, 0]),
-                     (1.05, [0, -0.07, LIFT * 0.6]), (1.2, [0, 0, 0]), (1.3, [0, 0, 0])]),
         channel("arms", GRASP, posspec="{mode: rest, scale: limb_length}",
                 pos=[(0.0, [0, 0, 0]), (0.2, [0.35, 0, 0.45]), (0.8, [0.35, 0, 0.45]), (1.3, [0, 0, 0])]),
     ]
@@ -122,12 +131,19 @@ FALL_T = 0.9
 # so the legs lie straight); horizontal ones (upright_spine false) collapse, tilted LOW deg
 LIE = {"z": 0.8, "shift": 0.7, "deg": 80, "feet": 0.85}
 LOW = {"z": 0.62, "shift": 0.25, "deg": 25, "feet": 0.1}
+# The feet of a fall, lying and getting up slide the same way, in character space
+# (mirror=False): a mirrored -y crossed the feet of a fall to the side.
 
 def lie_pose(d, low=False):
     (ux, uy), ax, sg = DIRS[d]
     L = LOW if low else LIE
+    # a low collapse to the side tucks its feet in toward the midline by a share of their
+    # own distance from it (sagittal-relative y, FOOTSPEC_LOW): a tuck in limb lengths
+    # crossed the feet of long-legged creatures with a narrow stance (random 4: 0.96 m of
+    # tuck, 0.68 m from the midline); keeping them still left them under the falling body
+    feet_y = LOW_TUCK * abs(uy) if low else -uy * L["feet"]
     return dict(pos=[r(ux * L["shift"]), r(uy * L["shift"]), L["z"]], rot=[ax[0], ax[1], ax[2], r(sg * L["deg"])],
-                deg=L["deg"], feet=[r(-ux * L["feet"]), r(-uy * L["feet"]), 0])
+                deg=L["deg"], feet=[r(-ux * L["feet"]), r(feet_y), 0])
 
 def branches(low):
     return {"upright_spine": not low}
@@ -147,7 +163,7 @@ def fall(d, low):
                      (FALL_T, P), (FALL_T + 0.12, [P[0], P[1], r(P[2] - 0.06)]), (FALL_T + 0.3, P)],
                 rot=[(0.0, ang(0)), (0.15, ang(0.1)), (0.4, ang(0.35)), (0.65, ang(0.72)), (FALL_T, ang(1.0)),
                      (FALL_T + 0.12, ang(0.96)), (FALL_T + 0.3, ang(1.0))]),
-        channel("feet", FEET, posspec=FOOTSPEC,
+        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False,
                 pos=[(0.0, [0, 0, 0]), (0.2, [0, 0, 0]), (0.5, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
                      (FALL_T, L["feet"]), (FALL_T + 0.3, L["feet"])]),
     ]
@@ -165,7 +181,7 @@ def lie(d, low):
         channel("root", ROOT, priority=1, posspec="{mode: rest, ground: true, scale: creature_size}",
                 pos=[(0.0, P), (1.0, [P[0], P[1], r(P[2] - 0.02)]), (2.0, P)],
                 rot=[(0.0, L["rot"]), (2.0, L["rot"])]),
-        channel("feet", FEET, posspec=FOOTSPEC, pos=[(0.0, L["feet"]), (2.0, L["feet"])]),
+        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False, pos=[(0.0, L["feet"]), (2.0, L["feet"])]),
     ]
     sfx = "_low" if low else ""
     return clip(f"lie_{d}{sfx}", f"Lying after a fall to the {d}: the pose fall_{d}{sfx} ends on, breathing (loops).",
@@ -183,7 +199,7 @@ def get_up(d, low):
                 pos=[(0.0, P), (0.6, [r(P[0] * 0.6), r(P[1] * 0.6), 0.6]), (1.2, [r(P[0] * 0.15), r(P[1] * 0.15), 0.3]),
                      (T, [0, 0, 0])],
                 rot=[(0.0, ang(1.0)), (0.6, ang(0.5)), (1.2, ang(0.1)), (T, ang(0))]),
-        channel("feet", FEET, posspec=FOOTSPEC, pos=[(0.0, L["feet"]), (0.5, L["feet"]), (0.8, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
+        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False, pos=[(0.0, L["feet"]), (0.5, L["feet"]), (0.8, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
                                                      (1.1, [0, 0, 0]), (T, [0, 0, 0])]),
     ]
     sfx = "_low" if low else ""
