@@ -70,12 +70,16 @@ DIRS = {
 def r(x):
     return round(x, 4)
 
-def stagger(d):
+def stagger(d, low=False):
     """Ends displaced: the root and every foot by the same ``root_step`` creature sizes, the
     rest pose moved, so the impact response can move the character's placement by it at the
-    end (clips have no root motion) and what played before goes on from there."""
+    end (clips have no root motion) and what played before goes on from there. ``low`` (for
+    creatures whose spine is not upright): no lean, since a horizontal body turned about its
+    root puts its far end into the ground (the snake's tail 3.4 heights under it, the
+    centipede's 1.2, from 14 + 20 degrees of lean)."""
     (ux, uy), ax, sg = DIRS[d]
-    lean = lambda deg: [ax[0], ax[1], ax[2], r(sg * deg)]
+    k = 0.0 if low else 1.0
+    lean = lambda deg: [ax[0], ax[1], ax[2], r(sg * deg * k)]
     root_step = 0.2      # creature sizes: more and a long creature's feet cannot follow its root
     T = 1.1
     end = [r(ux * root_step), r(uy * root_step), 0]
@@ -106,15 +110,19 @@ def stagger(d):
                 pos=[(0.0, [0, 0, 0]), (0.2, [r(-ux * 0.15), r(abs(uy) * 0.15), 0.25]),
                      (0.6, [r(-ux * 0.05), r(abs(uy) * 0.05), 0.1]), (T, [0, 0, 0])]),
     ]
-    return clip(f"stagger_{d}", f"Stagger {d}: pushed toward the {d}, the body leans and the feet step that way "
-                f"(leading feet past, the others short, then together) and it ends {root_step} creature sizes "
-                f"over, in the rest pose (root and feet in creature sizes).", T, chans)
+    how = "the body shifts (no lean: a horizontal body)" if low else "the body leans"
+    return clip(f"stagger_{d}{'_low' if low else ''}", f"Stagger {d}: pushed toward the {d}, {how} and the feet "
+                f"step that way (leading feet past, the others short, then together) and it ends {root_step} "
+                f"creature sizes over, in the rest pose (root and feet in creature sizes).", T, chans,
+                branches=branches(low))
 
-def brace():
+def brace(low=False):
+    bend = 0 if low else 12      # degrees forward; a horizontal body would put its tail in the ground
     chans = [
         channel("root", ROOT, priority=1, posspec="{mode: rest, ground: true}",
                 pos=[(0.0, [0, 0, 0]), (0.25, [0, 0, 0.22]), (0.8, [0, 0, 0.22]), (1.3, [0, 0, 0])]),
-        channel("spine", SPINE, rot=[(0.0, [0, 1, 0, 0]), (0.25, [0, 1, 0, 12]), (0.8, [0, 1, 0, 12]), (1.3, [0, 1, 0, 0])]),
+        channel("spine", SPINE, rot=[(0.0, [0, 1, 0, 0]), (0.25, [0, 1, 0, bend]), (0.8, [0, 1, 0, bend]),
+                                     (1.3, [0, 1, 0, 0])]),
         # every foot steps outward: the channel mirrors, so +y is outward on both sides
         # (a right-feet channel keyed -y stepped the right feet inward, across the midline)
         channel("feet", FEET, posspec=FOOTSPEC,
@@ -123,14 +131,17 @@ def brace():
         channel("arms", GRASP, posspec="{mode: rest, scale: limb_length}",
                 pos=[(0.0, [0, 0, 0]), (0.2, [0.35, 0, 0.45]), (0.8, [0.35, 0, 0.45]), (1.3, [0, 0, 0])]),
     ]
-    return clip("brace", "Brace: the body drops a fifth of the way to the ground, the feet step apart, the trunk "
-                "bends forward and the graspers come up in front (ground-relative root).", 1.3, chans)
+    return clip("brace_low" if low else "brace", "Brace: the body drops a fifth of the way to the ground, the feet "
+                "step apart, " + ("" if low else "the trunk bends forward ") + "and the graspers come up in front "
+                "(ground-relative root).", 1.3, chans, branches=branches(low))
 
 FALL_T = 0.9
 # the lying pose: upright creatures topple (turned LIE deg, the feet slide away from the fall
 # so the legs lie straight); horizontal ones (upright_spine false) collapse, tilted LOW deg
-LIE = {"z": 0.8, "shift": 0.7, "deg": 80, "feet": 0.85}
-LOW = {"z": 0.62, "shift": 0.25, "deg": 25, "feet": 0.1}
+# ("pitch": the tilt of a fall to the front or back; a long horizontal body pitched 25 degrees
+# put an end more than its height into the ground: centipede 1.15, crawler 0.6)
+LIE = {"z": 0.8, "shift": 0.7, "deg": 80, "pitch": 80, "feet": 0.85}
+LOW = {"z": 0.62, "shift": 0.25, "deg": 12, "pitch": 0, "feet": 0.1}
 # The feet of a fall, lying and getting up slide the same way, in character space
 # (mirror=False): a mirrored -y crossed the feet of a fall to the side.
 
@@ -142,8 +153,9 @@ def lie_pose(d, low=False):
     # crossed the feet of long-legged creatures with a narrow stance (random 4: 0.96 m of
     # tuck, 0.68 m from the midline); keeping them still left them under the falling body
     feet_y = LOW_TUCK * abs(uy) if low else -uy * L["feet"]
-    return dict(pos=[r(ux * L["shift"]), r(uy * L["shift"]), L["z"]], rot=[ax[0], ax[1], ax[2], r(sg * L["deg"])],
-                deg=L["deg"], feet=[r(-ux * L["feet"]), r(feet_y), 0])
+    deg = L["deg"] if uy else L["pitch"]
+    return dict(pos=[r(ux * L["shift"]), r(uy * L["shift"]), L["z"]], rot=[ax[0], ax[1], ax[2], r(sg * deg)],
+                deg=deg, feet=[r(-ux * L["feet"]), r(feet_y), 0])
 
 def branches(low):
     return {"upright_spine": not low}
@@ -206,11 +218,11 @@ def get_up(d, low):
     return clip(f"get_up_{d}{sfx}", f"Get up after lie_{d}{sfx}: push up to a crouch over the feet, then rise to "
                 f"the rest pose.", T, chans, branches=branches(low))
 
-out = {"brace": brace()}
+out = {"brace": brace(), "brace_low": brace(True)}
 for d in DIRS:
-    out[f"stagger_{d}"] = stagger(d)
     for low in (False, True):
         sfx = "_low" if low else ""
+        out[f"stagger_{d}{sfx}"] = stagger(d, low)
         out[f"fall_{d}{sfx}"] = fall(d, low)
         out[f"lie_{d}{sfx}"] = lie(d, low)
         out[f"get_up_{d}{sfx}"] = get_up(d, low)
