@@ -68,6 +68,9 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
+    foot_priority: float = 0.0    # where feet and other goals pull one spine particle, the others' share of a
+                                  # pull (1: equal shares; below 1 the feet win, so a grasper past its reach does
+                                  # not lift the feet it stands on)
     aim_via: bool = True          # a limb's aim turns it through forward (no flip for goals opposite its
                                   # rest direction; the one ill-defined aim is straight behind): ``_aim_via``.
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
@@ -120,6 +123,8 @@ class IKParams:
             raise IKError("limb_shrink <= 1 <= limb_stretch is required", field="limb_shrink")
         if not 0.0 < self.soft_reach <= 1.0:
             raise IKError("must be in (0, 1] (1 turns the easing off)", field="soft_reach")
+        if not 0.0 <= self.foot_priority <= 1.0:
+            raise IKError("must be in [0, 1]", field="foot_priority")
         if not 0.0 < self.chord_compress <= 1.0:
             raise IKError("must be in (0, 1]", field="chord_compress")
         if self.goal_aim not in (0, 1):
@@ -570,16 +575,31 @@ def _build(c, goals: list[int], prm: IKParams):
             reach = float(c.body_limb_length[g]) + float(np.linalg.norm(rr_joint[limb_root] - sp_rest[sp]))
             lo = 1.0 if g == limb_root else prm.chord_compress
             sc.append(dict(a=sp, b=p, kind=1, len=L, lo=lo, hi=max(1.0, reach / L), plo=lo,
-                           phi=max(1.0, reach / L), inva=1.0, invb=1.0, depth=depth))
+                           phi=max(1.0, reach / L), inva=1.0, invb=1.0, depth=depth,
+                           foot=bool(int(caps[g]) & FOOT)))
 
     # Several goals pulling one spine particle: each moves it by its share, so a sweep
-    # in any order settles between them instead of at the last one processed.
+    # in any order settles between them instead of at the last one processed. Where feet
+    # pull it too, the other goals keep ``foot_priority`` of a share: a grasper whose goal
+    # is past its reach (a prehensile tail waving a metre up) bends the spine, but does
+    # not lift the body off the feet it stands on (the pelvis rose 19 cm and the hind feet
+    # hung 22 cm over their goals with equal shares).
     pulls: dict[int, int] = {}
+    feet_at: dict[int, int] = {}
     for x in sc:
         if x["kind"] in (1, 2):
             pulls[x["a"]] = pulls.get(x["a"], 0) + 1
+            if x.get("foot"):
+                feet_at[x["a"]] = feet_at.get(x["a"], 0) + 1
     for x in sc:
-        x["stiff"] = 1.0 / pulls[x["a"]] if x["kind"] in (1, 2) else 1.0
+        if x["kind"] not in (1, 2):
+            x["stiff"] = 1.0
+        elif feet_at.get(x["a"]) and prm.foot_priority < 1.0:
+            nf, n = feet_at[x["a"]], pulls[x["a"]]
+            x["stiff"] = 1.0 / nf * (1.0 - prm.foot_priority * (n - nf) / n) if x.get("foot") \
+                else prm.foot_priority / n
+        else:
+            x["stiff"] = 1.0 / pulls[x["a"]]
 
     # Anti-buckling anchors at each spine particle's rest position.
     for s in branch_bodies:
