@@ -1805,8 +1805,9 @@ def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w,
     # goals inside the creature's own bodies moved to their surface (issue 16; a copy:
     # the caller's goals are not written)
     goal_limb = _collide.settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
+    # P_GROUND 1: both phases keep boxes above the ground; 0.5: the spine phase only
     _limb_phase(P, goal_limb, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
-                out_pos, out_rot, lg_target, lg_jtarget, scratch, ground_on, gn, gd)
+                out_pos, out_rot, lg_target, lg_jtarget, scratch, ground_on and P.params[P_GROUND] >= 1.0, gn, gd)
 
 
 @njit(cache=True, _nrt=False)

@@ -76,6 +76,8 @@ class IKParams:
     spine_brace: bool = True      # a spine body held at a goal keeps its origin's rest distance to its child's joint
     ground: bool = False          # every body's box kept above the ground plane passed to the solve (character
                                   # space; z = 0 by default), down to its floor ``body_floor`` (issues 12/16)
+    ground_spine: bool = True     # with ``ground`` off, the spine phase alone keeps spine bodies' boxes above the
+                                  # ground (a snake lifting its head no longer sinks its neck 0.9 of its height)
     parent_twist: bool = True     # limb bodies below a limb's root are rebuilt from their parent's frame through a
                                   # chord bent 45 degrees into their bend, so their one ill-defined chord is a joint
                                   # bent 135 degrees against its bend, not the rest chord reversed (``_rebuild_refs``)
@@ -98,7 +100,7 @@ class IKParams:
         v[K.P_LIMB_STRETCH] = self.limb_stretch
         v[K.P_GOAL_AIM] = self.goal_aim
         v[K.P_ROOT_PIN] = 1.0 if self.root_pin else 0.0
-        v[K.P_GROUND] = 1.0 if self.ground else 0.0
+        v[K.P_GROUND] = 1.0 if self.ground else (0.5 if self.ground_spine else 0.0)
         v[K.P_CONTACT_ITERATE] = 1.0 if self.self_collision_iterate else 0.0
         return v
 
