@@ -360,3 +360,34 @@ def test_a_hit_during_the_blend_starts_from_closed_joints():
     ch.tick(DT)
     assert np.linalg.norm(ch.world_positions - pos0, axis=1).max() < 0.05 * h + 0.1 * gap, gap
     assert np.linalg.norm(rotvec_between(rot0, ch.world_rotations), axis=1).max() < 0.3
+
+
+def test_the_blend_back_does_not_take_a_body_into_the_ground():
+    """The hand-off offset decays as (x0 + (v0 + w x0) t) e^(-w t): a foot still falling in the
+    simulation while the found clip lifts it dipped the centipede's first foot 4.4 cm under
+    the ground on the way into fall_right_low (it is 7 cm tall). No body is blended lower than
+    it rests on the ground, or than the clip itself puts it."""
+    from engine.channels.modes import ground_height
+    from engine.response.impact import ImpactResponse
+
+    ch = _standing("centipede")
+    c = ch.creature
+    r = ImpactResponse(ch)
+    pos = ch.world_positions.copy()
+    rot = ch.world_rotations.copy()
+    clip_z = pos[:, 2].copy()
+    clip_z[5] = -0.01                       # a clip that itself sinks one body is left alone
+    pos[:, 2] = clip_z
+    r._off_pos[:] = 0.0
+    r._off_rot[:] = 0.0
+    r._off_vel[:] = 0.0
+    r._off_vel[:, 2] = -2.0                 # every body still falling at 2 m/s at the hand-off
+    w, t = 10.0, 0.08
+    e = np.exp(-w * t)
+    out = pos.copy()
+    r._blend_pose(out, rot, (1 + w * t) * e, t * e)
+    floor = np.array([ground_height(c, b) for b in range(c.nbody)])
+    assert np.all(out[:, 2] >= np.minimum(floor, clip_z) - 1e-12)
+    assert out[5, 2] == pytest.approx(-0.01)
+    # without the floor the same offset puts the feet well under the ground
+    assert np.min(pos[:, 2] - 2.0 * t * e) < -0.05

@@ -291,6 +291,10 @@ class ImpactResponse:
         self._off_pos = np.zeros((n, 3))
         self._off_vel = np.zeros((n, 3))
         self._off_rot = np.zeros((n, 3))
+        from engine.channels.modes import ground_height
+
+        # each body's origin height when its rest box rests on the ground (the blend's floor)
+        self._rest_height = np.array([ground_height(c, b) for b in range(c.nbody)])
         self._off_angvel = np.zeros((n, 3))
         self._blend_t = 0.0
         self._handoff = 0.0
@@ -762,9 +766,21 @@ class ImpactResponse:
         as (x0 + (v0 + w x0) t) e^(-w t), its rotation offset scaled by kx. Per body, not as a
         chain: turning the bodies about their joints by the decaying rotation offsets (tried,
         s31) swung a foot through an arc 8.7 cm into the ground on the way into 'roar'."""
+        clip_z = anim_pos[:, 2].copy()
         anim_pos += kx * self._off_pos + kv * self._off_vel
         rv = kx * self._off_rot     # rotations: the offset alone (see _start_blend)
         _rotate_by_rotvec(rv, anim_rot)
+        # The decaying offset must not take a body into the ground: a foot still falling in
+        # the simulation while the found clip lifts it (the offset's velocity term) dipped the
+        # centipede's first foot 4.4 cm under the ground on the way into fall_right_low (its
+        # height is 7 cm). No body goes lower than it rests on the terrain, or than the clip
+        # itself puts it (a clip may sink a body; the blend does not add to it).
+        terrain = self.model2.terrain
+        for b in range(anim_pos.shape[0]):
+            h, _n = terrain.sample(anim_pos[b, 0], anim_pos[b, 1])
+            low = min(h + self._rest_height[b], clip_z[b])
+            if anim_pos[b, 2] < low:
+                anim_pos[b, 2] = low
 
 def _qmul(a, b):
     aw, av = a[..., :1], a[..., 1:]
