@@ -155,7 +155,7 @@ def lie_pose(d, low=False):
     feet_y = LOW_TUCK * abs(uy) if low else -uy * L["feet"]
     deg = L["deg"] if uy else L["pitch"]
     return dict(pos=[r(ux * L["shift"]), r(uy * L["shift"]), L["z"]], rot=[ax[0], ax[1], ax[2], r(sg * deg)],
-                deg=deg, feet=[r(-ux * L["feet"]), r(feet_y), 0])
+                deg=deg, feet=[r(-ux * L["feet"]), r(feet_y), 0], feetspec=FOOTSPEC_LOW if low else FOOTSPEC)
 
 def branches(low):
     return {"upright_spine": not low}
@@ -175,7 +175,7 @@ def fall(d, low):
                      (FALL_T, P), (FALL_T + 0.12, [P[0], P[1], r(P[2] - 0.06)]), (FALL_T + 0.3, P)],
                 rot=[(0.0, ang(0)), (0.15, ang(0.1)), (0.4, ang(0.35)), (0.65, ang(0.72)), (FALL_T, ang(1.0)),
                      (FALL_T + 0.12, ang(0.96)), (FALL_T + 0.3, ang(1.0))]),
-        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False,
+        channel("feet", FEET, posspec=L["feetspec"], mirror=False,
                 pos=[(0.0, [0, 0, 0]), (0.2, [0, 0, 0]), (0.5, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
                      (FALL_T, L["feet"]), (FALL_T + 0.3, L["feet"])]),
     ]
@@ -193,7 +193,7 @@ def lie(d, low):
         channel("root", ROOT, priority=1, posspec="{mode: rest, ground: true, scale: creature_size}",
                 pos=[(0.0, P), (1.0, [P[0], P[1], r(P[2] - 0.02)]), (2.0, P)],
                 rot=[(0.0, L["rot"]), (2.0, L["rot"])]),
-        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False, pos=[(0.0, L["feet"]), (2.0, L["feet"])]),
+        channel("feet", FEET, posspec=L["feetspec"], mirror=False, pos=[(0.0, L["feet"]), (2.0, L["feet"])]),
     ]
     sfx = "_low" if low else ""
     return clip(f"lie_{d}{sfx}", f"Lying after a fall to the {d}: the pose fall_{d}{sfx} ends on, breathing (loops).",
@@ -211,7 +211,7 @@ def get_up(d, low):
                 pos=[(0.0, P), (0.6, [r(P[0] * 0.6), r(P[1] * 0.6), 0.6]), (1.2, [r(P[0] * 0.15), r(P[1] * 0.15), 0.3]),
                      (T, [0, 0, 0])],
                 rot=[(0.0, ang(1.0)), (0.6, ang(0.5)), (1.2, ang(0.1)), (T, ang(0))]),
-        channel("feet", FEET, posspec=FOOTSPEC_LOW if low else FOOTSPEC, mirror=False, pos=[(0.0, L["feet"]), (0.5, L["feet"]), (0.8, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
+        channel("feet", FEET, posspec=L["feetspec"], mirror=False, pos=[(0.0, L["feet"]), (0.5, L["feet"]), (0.8, [r(L["feet"][0] * 0.5), r(L["feet"][1] * 0.5), LIFT]),
                                                      (1.1, [0, 0, 0]), (T, [0, 0, 0])]),
     ]
     sfx = "_low" if low else ""

@@ -70,6 +70,7 @@ from engine.physics import (
     state_from_kinematic,
     step,
 )
+from engine.physics._kernels import terrain_sample
 from engine.physics.world import PhysicsState, rotvec_between
 from engine.response.library import RATE, WINDOW, MotionLibrary, library_for
 from engine.response.search import SearchResult, search, window_features, yaw_of
@@ -295,6 +296,7 @@ class ImpactResponse:
 
         # each body's origin height when its rest box rests on the ground (the blend's floor)
         self._rest_height = np.array([ground_height(c, b) for b in range(c.nbody)])
+        self._clip_z = np.zeros(n)
         self._off_angvel = np.zeros((n, 3))
         self._blend_t = 0.0
         self._handoff = 0.0
@@ -766,7 +768,8 @@ class ImpactResponse:
         as (x0 + (v0 + w x0) t) e^(-w t), its rotation offset scaled by kx. Per body, not as a
         chain: turning the bodies about their joints by the decaying rotation offsets (tried,
         s31) swung a foot through an arc 8.7 cm into the ground on the way into 'roar'."""
-        clip_z = anim_pos[:, 2].copy()
+        clip_z = self._clip_z
+        np.copyto(clip_z, anim_pos[:, 2])
         anim_pos += kx * self._off_pos + kv * self._off_vel
         rv = kx * self._off_rot     # rotations: the offset alone (see _start_blend)
         _rotate_by_rotvec(rv, anim_rot)
@@ -775,9 +778,9 @@ class ImpactResponse:
         # centipede's first foot 4.4 cm under the ground on the way into fall_right_low (its
         # height is 7 cm). No body goes lower than it rests on the terrain, or than the clip
         # itself puts it (a clip may sink a body; the blend does not add to it).
-        terrain = self.model2.terrain
+        t = self.model2.terrain
         for b in range(anim_pos.shape[0]):
-            h, _n = terrain.sample(anim_pos[b, 0], anim_pos[b, 1])
+            h = terrain_sample(t.height, t.x0, t.y0, t.cell, float(anim_pos[b, 0]), float(anim_pos[b, 1]))[0]
             low = min(h + self._rest_height[b], clip_z[b])
             if anim_pos[b, 2] < low:
                 anim_pos[b, 2] = low
