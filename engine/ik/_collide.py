@@ -46,44 +46,44 @@ MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1
 SKIN = 1.0       # depth (share of the thinner capsule's radius) over which a contact's push ramps in
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _v3(a, i):
     return (a[i, 0], a[i, 1], a[i, 2])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _set3(a, i, v):
     a[i, 0] = v[0]
     a[i, 1] = v[1]
     a[i, 2] = v[2]
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _rot(q, v):
     """Rotate v by the unit quaternion q = (w, x, y, z)."""
     w = q[0]
@@ -92,7 +92,7 @@ def _rot(q, v):
     return _add(_add(v, _scale(t, w)), _cross(u, t))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _between(u, v):
     """Shortest-arc rotation taking u to v (the solver's ``qbetween``, same singular axis)."""
     nu = math.sqrt(_dot(u, u))
@@ -114,12 +114,12 @@ def _between(u, v):
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _clamp01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _closest_params(p1, q1, p2, q2):
     """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson,
     Real-Time Collision Detection 5.1.9), made continuous where the segments turn
@@ -162,7 +162,7 @@ def _closest_params(p1, q1, p2, q2):
     return s, t
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _qmul(a, b):
     return (a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
             a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
@@ -170,12 +170,12 @@ def _qmul(a, b):
             a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _q4(a, i):
     return (a[i, 0], a[i, 1], a[i, 2], a[i, 3])
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _nlerp(a, b, t):
     if a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0:
         b = (-b[0], -b[1], -b[2], -b[3])
@@ -301,7 +301,7 @@ def _held(lp_inv, i, c, v, u, rigid):
     return (0.0 if pin_i else v), (0.0 if pin_c else u)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv, hold):
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
     particles apart along the contact normal. The pushes are averaged per particle and
@@ -449,10 +449,10 @@ def push_round(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_r
     being pushed off its goal at the end."""
     work = _work(P, scratch, lp_pos)
     return _push_pairs(P, P.cl_i, P.cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
-                       True)
+                       lp_pos.shape[0] >= 0)   # True, but not a literal: one compile of _push_pairs
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv):
     """The limb phase's self-collision step (after its constraint iterations, before its
     rebuild; ``begin`` has run): ``rounds`` times update the proxies, push overlapping
@@ -465,7 +465,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot,
     total = 0
     for _round in range(cl_i[4]):
         pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
-                             False)
+                             lp_pos.shape[0] < 0)   # False, not a literal (see push_round)
         if pushed == 0:
             break
         total += pushed
@@ -484,7 +484,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot,
     return total
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _goal_push(pen, band):
     """How far a goal ``pen`` inside a surface (negative: outside) is moved out: 0 beyond
     ``band`` outside, all of it beyond ``band`` inside, a quadratic between (C1: a goal
@@ -518,7 +518,7 @@ def _goal_rest(P, gi, out_pos, out_rot):
     return _add(_v3(out_pos, s), _rot(_q4(out_rot, s), _v3(P.lp_local, i)))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)
 def _perp(v, ax, aa):
     """v without its component along ax (aa = |ax|^2)."""
     if aa <= EPS:

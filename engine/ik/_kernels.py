@@ -142,8 +142,15 @@ GROUND_BIAS = 0.5      # outward share of a free limb particle's ground lift (``
 # functions this small anyway: numba's own inlining (``inline="always"``) re-ran its
 # front end and deep-copied the IR at each of their thousands of call sites, a quarter
 # of the solver's compile time, for machine code as fast (measured: benchmarks/startup.py,
-# benchmarks/ik.py). The constraint helpers below, with loops, and the stages that take
-# the plan ``P`` stay inlined by numba: without it the solve was 12% slower.
+# benchmarks/ik.py). The constraint helpers below, with loops, and the small functions
+# that take the plan ``P`` stay inlined by numba (a call passes ``P``'s hundred arrays
+# field by field). The large stages (``_spine_phase``, ``_spine_reconstruct``,
+# ``_limb_phase`` and its parts) are not: inlined by numba, ``solve_one`` took 190 s of
+# CPU to compile, 125 of them in numba's inlining pass itself. They are compiled once
+# each, marked ``forceinline`` so LLVM inlines them into their one caller (the machine
+# code is as fast as before, poses bit-identical), and, like every kernel only other
+# kernels call, without a Python wrapper (``no_cpython_wrapper``: unboxing a ``P`` from
+# Python is code nobody runs). First IK solve with an empty cache: 205 -> 38 s of CPU.
 
 
 @njit(cache=True, _nrt=False)
@@ -529,7 +536,7 @@ def _f(pi, pf, k):
     return borrow(pf[o:o + pi[h + 1]])
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def unpack(pi, pf, pf3, pf4):
     """The plan blobs as a ``PlanArrays`` NamedTuple of borrowed views (no copies, no
     reference counts: the caller's blobs must outlive it, as kernel arguments do)."""
@@ -556,7 +563,7 @@ def unpack(pi, pf, pf3, pf4):
     )
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _scratch_views(P, scratch):
     """Views of the scratch rows (scratch is (rows, 3) float64; per-particle scalars use
     column 0 of their own rows, so every view is a plain slice)."""
@@ -875,7 +882,7 @@ def _ground_interior(segbody_body, b_extent, b_floor, adr, num, gn, gd, segbody_
             set3(out_pos, body, vadd(v3(out_pos, body), vscale(gn, lift)))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_target, sp_pos, sp_inv,
                  state, sp_acc, ground_on, gn, gd):
     """Section 4.3.2: iterate the spine-phase constraints (simplified limbs, delegated
@@ -1088,7 +1095,7 @@ def rest_arc_shares(sp_rest, b_rootrel_rot, sp_body, seg_a, seg_b, seg_v0, seg_a
                                 if rest_arc > EPS else 0.0)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, sp_pos, ch_tan, segbody_tp,
                        out_pos, out_rot, buckle, ground_on, gn, gd, segbody_lift):
     """Section 4.3.2, "Reconstruction": outward projection of the spine particles to the
@@ -1292,7 +1299,7 @@ def _aim_at_child(P, x, y, goal_pos_w, goal_rot_w, out_pos, out_rot):
         set3(out_pos, x, vadd(jx, qrot(rx, off)))
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _limb_phase(P, goal_pos, goal_pos_w, goal_rot, goal_rot_w, goal_joint, lp_pos, lp_rest, lp_inv,
                 out_pos, out_rot, lg_target, lg_jtarget, scratch, ground_on, gn, gd):
     """Section 4.3.3: particles at every limb joint, aimed at the goals (serial chains and,
@@ -1577,7 +1584,7 @@ def _pin_limb_goals(goal_body, goal_lp, goal_lpj, lp_parent, goal_pos_w, goal_ro
                 lp_inv[j] = 0.0
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_inv, n_outer, n_inner, lp_rest,
                   out_rot, ground_on, gn, gd, ctr, collide, scratch, goal_rot, out_pos):
     """Pin the goal particles (weighted), then ``n_outer`` times: ``n_inner`` sweeps of the
@@ -1626,7 +1633,7 @@ def _limb_iterate(P, goal_pos_w, goal_rot_w, lg_target, lg_jtarget, lp_pos, lp_i
                             lp_pos, lp_inv, False)
 
 
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _limb_rebuild(P, goal_pos_w, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
     """Limb reconstruction (4.3.3): positions by outward projection to the allowed
     stretch, orientations by minimal twist from the rest pose, or from two constraint
@@ -1757,7 +1764,7 @@ def _place_rigid(P, out_pos, out_rot):
         set3(out_pos, b, vadd(v3(out_pos, p), qrot(rp, v3(P.b_local_pos, b))))
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def solve_one(P, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot,
               scratch, ground):
     """One whole solve: goals to joint targets, spine phase, root influence, spine
@@ -1887,7 +1894,7 @@ def solve_packed_batch(plan_i, plan_f, plan_f3, plan_f4, root_pos, root_rot, goa
     return nbad
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def solve_row(P, c, root_pos, root_rot, goal_pos, goal_rot, goal_pos_w, goal_rot_w, out_pos, out_rot, scratch, bad,
               ground):
     """Row ``c`` of stacked inputs (leading axis over characters): checks its input into
