@@ -403,6 +403,7 @@ class Character:
         if self.response is None:
             from engine.response.impact import ImpactResponse
 
+            compiling.notice("physics")   # the first hit compiles the physics (once, when not cached)
             self.response = ImpactResponse(self)
         self.response.hit(body, impulse, point, duration)
         _REACTING.add(self)

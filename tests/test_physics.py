@@ -391,13 +391,15 @@ def _standing_leg(locked=False, spin=0.0):
 def test_contact_body_inverse_inertia_against_numpy():
     """Phi (the bodies' velocity for a unit impulse on a ground-contact body, every joint
     held) against the dense saddle-point system [[M, J^T], [J, 0]] in numpy."""
+    from numba import njit
+
     from engine.physics import _kernels as K
 
     model = _standing_leg()
     state = PhysicsState(model)
     state.body_rot[2] = qy(0.5)                     # thigh turned off its rest: r_a, r_b both matter
     m, s = model.arrays, state.arrays
-    K._prepare(m, s, DT)
+    njit(lambda m, s, h: K._prepare(m, s, h))(m, s, DT)   # kernels call _prepare; it has no Python wrapper
     assert s.cbody_n[0] == 1 and s.cbody[0] == 0
     n, nj = model.nbody, model.njoint
     M = np.zeros((6 * n, 6 * n))

@@ -175,7 +175,7 @@ def _inv3_sym_into(a00, a01, a02, a11, a12, a22, out, i):
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _apply(m, s, b, rx, ry, rz, px, py, pz, sign):
     """Linear impulse sign*P at offset r (world, from the COM) on body b (-1: ground)."""
     if b < 0:
@@ -191,7 +191,7 @@ def _apply(m, s, b, rx, ry, rz, px, py, pz, sign):
     s.body_angvel[b, 2] += sign * dz
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _apply_ang(s, b, lx, ly, lz, sign):
     """Angular impulse sign*L on body b (-1: ground)."""
     if b < 0:
@@ -202,7 +202,7 @@ def _apply_ang(s, b, lx, ly, lz, sign):
     s.body_angvel[b, 2] += sign * dz
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _point_vel(s, b, rx, ry, rz):
     if b < 0:
         return 0.0, 0.0, 0.0
@@ -211,7 +211,7 @@ def _point_vel(s, b, rx, ry, rz):
     return s.body_linvel[b, 0] + cx, s.body_linvel[b, 1] + cy, s.body_linvel[b, 2] + cz
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _inv_mass_dir(m, s, b, rx, ry, rz, dx, dy, dz):
     """Inverse effective mass of body b at r along unit direction d: 1/m + (r x d).I^-1(r x d)."""
     if b < 0:
@@ -221,7 +221,7 @@ def _inv_mass_dir(m, s, b, rx, ry, rz, dx, dy, dz):
     return m.body_inv_mass[b] + cx * ix + cy * iy + cz * iz
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _world_point(m, s, b, lx, ly, lz):
     q = s.body_rot
     rx, ry, rz = _qrot(q[b, 0], q[b, 1], q[b, 2], q[b, 3], lx, ly, lz)
@@ -309,7 +309,7 @@ def _closest_segments(p1x, p1y, p1z, q1x, q1y, q1z, p2x, p2y, p2z, q2x, q2y, q2z
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _servo_inertia_local(m, s):
     """PD servo inertia for the Gauss-Seidel solver: the child body alone about the joint,
     reduced with the parent body alone. Sequential impulses need the pair's own effective
@@ -362,7 +362,7 @@ def _servo_inertia_local(m, s):
         _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _servo_inertia(m, s):
     """PD servo inertia per joint (Zordan et al. 2005 section 4: "I is the inertial matrix
     of the outboard body"), taken as the whole outboard sub-tree about the joint point,
@@ -493,7 +493,7 @@ def _servo_inertia(m, s):
         _inv3_sym_into(u00, u01, u02, u11, u12, u22, s.joint_pd_mass, j)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _prepare(m, s, h):
     n = s.body_pos.shape[0]
     # World inverse inertia R diag(I^-1) R^T (zero for fixed bodies).
@@ -723,7 +723,7 @@ def _prepare(m, s, h):
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _integrate_velocities(m, s, h):
     gx, gy, gz = m.params[P_GRAVITY_X], m.params[P_GRAVITY_Y], m.params[P_GRAVITY_Z]
     for b in range(s.body_pos.shape[0]):
@@ -790,7 +790,7 @@ def _integrate_velocities(m, s, h):
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _warm_start(m, s):
     for j in range(m.joint_parent.shape[0]):
         a = m.joint_parent[j]
@@ -855,7 +855,7 @@ def _warm_start(m, s):
 # the contacts read were joint-consistent: so a direct solve runs before the contacts too.
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _contact_bodies(m, s):
     """Slots (bodies with an active ground contact: feet first, then the others, up to the
     slot count), the needed nodes and Phi."""
@@ -1007,7 +1007,7 @@ def _phi_form(P, rx, ry, rz, ax, ay, az, bx, by, bz):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _slot_impulse(s, K, l, px, py, pz, lx, ly, lz):
     """Every slot body's velocity after a spatial impulse (p, L) on slot body l."""
     phi = s.cbody_phi
@@ -1019,14 +1019,14 @@ def _slot_impulse(s, K, l, px, py, pz, lx, ly, lz):
                         + P[r, 5] * lz)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _slot_point_vel(s, k, rx, ry, rz):
     u = s.cbody_vel
     cx, cy, cz = _cross(u[k, 3], u[k, 4], u[k, 5], rx, ry, rz)
     return u[k, 0] + cx, u[k, 1] + cy, u[k, 2] + cz
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_slot_contacts(m, s, h, use_bias):
     """The slot bodies' ground contacts, Gauss-Seidel in contact space (see above), then the
     pass's impulses on the foot bodies (the direct joint solve after spreads them)."""
@@ -1177,7 +1177,7 @@ def _invert_sym_into(A, d, out, work):
             out[j, i] = v
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _update_node_dims(m, s):
     """node_dim: 6 for a body, 3 for a ball joint, 6 for a locked joint or a joint with a
     servo (point rows + rotation rows); joint_servo_direct: servo solved in the tree.
@@ -1191,7 +1191,7 @@ def _update_node_dims(m, s):
         s.node_dim[nb + j] = 6 if (m.joint_locked[j] != 0 or direct) else 3
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _edge_block(m, s, node, H):
     """H[:d_node, :d_parent] = the off-diagonal block between a node and its parent in
     the body-joint tree. A body's parent is its joint j: J_jb^T = [E; [r_b]x] (6x3). A
@@ -1221,7 +1221,7 @@ def _edge_block(m, s, node, H):
             H[3, 3] = H[4, 4] = H[5, 5] = -1.0
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _lock_error(m, s, j, a, b, target):
     """Rotation vector (world) taking the target orientation q_a * target[j] to q_b."""
     qa = s.body_rot[a]
@@ -1232,7 +1232,7 @@ def _lock_error(m, s, j, a, b, target):
     return _qrotvec(dw, dx, dy, dz)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _factor_tree(m, s, h):
     """Baraff's linear-time factorization ("Linear-Time Dynamics using Lagrange
     Multipliers", SIGGRAPH 1996) of [[M, J^T], [J, 0]] over the tree whose nodes are the
@@ -1304,7 +1304,7 @@ def _factor_tree(m, s, h):
                 D[p, r, c] -= acc
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_points_direct(m, s, h, use_bias):
     """Velocity update making every ball joint exact: J (v + dv) = -bias, with
     dv = -M^-1 J^T mu from [[M, J^T], [J, 0]] [dv; mu] = [0; -(J v + bias)], solved on
@@ -1415,7 +1415,7 @@ def _solve_points_direct(m, s, h, use_bias):
                     s.joint_pd_imp[j, c] += -x[i, 3 + c]
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_point_gs(m, s, j, a, b, rax, ray, raz, rbx, rby, rbz, use_bias, jbias, jmass, jimp):
     """One sequential-impulse update of ball joint j (3x3 effective mass, soft bias)."""
     vax, vay, vaz = _point_vel(s, a, rax, ray, raz)
@@ -1439,7 +1439,7 @@ def _solve_point_gs(m, s, j, a, b, rax, ray, raz, rbx, rby, rbz, use_bias, jbias
     _apply(m, s, b, rbx, rby, rbz, px, py, pz, 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_joints(m, s, h, use_bias, do_points):
     jbias, jmass, jimp = 0.0, 1.0, 0.0
     if use_bias:
@@ -1536,7 +1536,7 @@ def _contact_normal_impulse(mass_n, vn, sep, acc, h, use_bias, hz, zeta, max_pus
     return new, new - acc
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _solve_contacts(m, s, h, use_bias):
     max_push = m.params[P_MAX_PUSH]
     articulated = s.cbody_n[0] > 0
@@ -1650,7 +1650,7 @@ def _solve_contacts(m, s, h, use_bias):
 # ---------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _integrate_positions(m, s, h):
     for b in range(s.body_pos.shape[0]):
         if m.body_inv_mass[b] == 0.0:
@@ -1672,7 +1672,7 @@ def _integrate_positions(m, s, h):
         s.body_rot[b, 3] = qz * inv
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _rotate_by(s, b, dx, dy, dz, sign):
     """q <- normalize(q + 1/2 (0, sign*d) q): a small rotation by the vector d."""
     qw, qx, qy, qz = s.body_rot[b, 0], s.body_rot[b, 1], s.body_rot[b, 2], s.body_rot[b, 3]
@@ -1688,7 +1688,7 @@ def _rotate_by(s, b, dx, dy, dz, sign):
     s.body_rot[b, 3] = qz * inv
 
 
-@njit(cache=True)
+@njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _project_joints(m, s):
     """Non-linear Gauss-Seidel position projection of the ball joints (Box2D v2.4's
     post-stabilization): move the two bodies, by their inverse masses, so the anchors
