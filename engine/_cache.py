@@ -2,23 +2,28 @@
 
 numba caches each ``@njit(cache=True)`` kernel keyed by its *own* source file. A kernel
 that calls a kernel of another module (the runtime calls the IK solver, the IK calls
-mathx...) keeps the callee's old machine code in its cache when only the callee's file
-changes: a stale copy that can read a changed array layout out of bounds. So at import
-Menagerie hashes every source file that defines numba kernels; when the hash differs
-from the one stored beside the cache, it deletes Menagerie's cached kernels (all of
-them: they are rebuilt on first use) and stores the new hash. Installed copies whose
-cache directories cannot be written are left alone.
+its self-collision module, the channels call mathx...) keeps the callee's old machine
+code in its cache when only the callee's file changes: a stale copy that can read a
+changed array layout out of bounds. So at import Menagerie hashes, for every source file
+that defines numba kernels, that file and every Menagerie module it imports, directly
+or through others (constants and layouts frozen into the machine code come from those
+too). The digests are stored beside the cache; a kernel file whose digest changed has
+its cached kernels deleted (rebuilt on first use), the others keep theirs: a change to
+the physics does not recompile the IK. Installed copies whose cache directories cannot
+be written are left alone.
 """
 
 from __future__ import annotations
 
+import ast
 import glob
 import hashlib
+import json
 import os
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _PACKAGES = ("engine", "authoring")
-_STAMP = "menagerie_kernels.sha1"
+_STAMP = "menagerie_kernels.json"
 
 
 def _kernel_sources() -> list[str]:
@@ -55,30 +60,109 @@ def _cache_dirs(sources: list[str]) -> list[str]:
 _CODEGEN_ENV = ("NUMBA_BOUNDSCHECK", "NUMBA_OPT", "NUMBA_FASTMATH", "NUMBA_DEBUGINFO")
 
 
+def _module_file(name: str) -> str | None:
+    """The source file of Menagerie module ``name`` (``engine.ik._kernels``), or None."""
+    base = os.path.join(_ROOT, *name.split("."))
+    for path in (base + ".py", os.path.join(base, "__init__.py")):
+        if os.path.isfile(path):
+            return path
+    return None
+
+
+def _imports(path: str) -> set[str]:
+    """The Menagerie source files ``path`` imports by name. ``from a.b import c`` is the
+    module ``a.b.c`` when that is a module, else ``a.b`` (a package's ``__init__`` only
+    when a name is taken from it: importing a submodule runs the package, but none of
+    its code goes into the submodule's kernels)."""
+    try:
+        with open(path, "rb") as f:
+            tree = ast.parse(f.read(), filename=path)
+    except (OSError, SyntaxError, ValueError):
+        return set()
+    pkg = os.path.relpath(os.path.dirname(path), _ROOT).replace(os.sep, ".")
+    out = set()
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            mod = node.module or ""
+            if node.level:
+                parts = pkg.split(".")
+                parts = parts[:len(parts) - (node.level - 1)] if node.level > 1 else parts
+                mod = ".".join(parts + ([mod] if mod else []))
+            for a in node.names:
+                sub = _module_file(f"{mod}.{a.name}")
+                names.append(f"{mod}.{a.name}" if sub else mod)
+        for n in names:
+            if n.split(".")[0] in _PACKAGES:
+                f = _module_file(n)
+                if f and f != path:
+                    out.add(f)
+    return out
+
+
+def kernel_digests(sources: list[str] | None = None) -> dict[str, str]:
+    """Per kernel source (path relative to the project): a digest of the file, of every
+    Menagerie module it imports, transitively, and of the code-generation settings."""
+    sources = _kernel_sources() if sources is None else sources
+    graph: dict[str, set[str]] = {}
+    content: dict[str, bytes] = {}
+    todo = list(sources)
+    while todo:
+        p = todo.pop()
+        if p in graph:
+            continue
+        graph[p] = _imports(p)
+        try:
+            with open(p, "rb") as f:
+                content[p] = f.read()
+        except OSError:
+            content[p] = b""
+        todo.extend(graph[p] - graph.keys())
+    env = "".join(f"{name}={os.environ.get(name, '')};" for name in _CODEGEN_ENV).encode()
+    out = {}
+    for p in sources:
+        seen, stack = {p}, [p]
+        while stack:
+            for q in graph[stack.pop()]:
+                if q not in seen:
+                    seen.add(q)
+                    stack.append(q)
+        digest = hashlib.sha1(env)
+        for q in sorted(seen):
+            digest.update(os.path.relpath(q, _ROOT).encode())
+            digest.update(content[q])
+        out[os.path.relpath(p, _ROOT)] = digest.hexdigest()
+    return out
+
+
+def _cache_files(source: str, cache_dir: str) -> list[str]:
+    stem = os.path.splitext(os.path.basename(source))[0]
+    return [f for pattern in (f"{stem}.*.nbi", f"{stem}.*.nbc") for f in glob.glob(os.path.join(cache_dir, pattern))]
+
+
 def refresh_stale_kernel_cache() -> bool:
-    """Drop Menagerie's cached kernels if any kernel source changed; True if it did."""
+    """Drop the cached kernels of every kernel source whose digest changed (the file or
+    a module it imports); True if any were dropped or the stamp was rewritten."""
     try:
         sources = _kernel_sources()
-        digest = hashlib.sha1()
-        for p in sources:
-            with open(p, "rb") as f:
-                digest.update(os.path.relpath(p, _ROOT).encode())
-                digest.update(f.read())
-        for name in _CODEGEN_ENV:
-            digest.update(f"{name}={os.environ.get(name, '')}".encode())
-        stamp = digest.hexdigest()
-        dirs = _cache_dirs(sources)
+        digests = kernel_digests(sources)
         stamp_dir = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(_ROOT, "engine", "__pycache__")
         stamp_path = os.path.join(stamp_dir, _STAMP)
         try:
             with open(stamp_path) as f:
-                if f.read().strip() == stamp:
-                    return False
-        except OSError:
-            pass
-        for d in dirs:
-            for pattern in ("*.nbi", "*.nbc"):
-                for f in glob.glob(os.path.join(d, pattern)):
+                old = json.load(f)
+            if not isinstance(old, dict):
+                old = {}
+        except (OSError, ValueError):
+            old = {}
+        stale = [p for p in sources if old.get(os.path.relpath(p, _ROOT)) != digests[os.path.relpath(p, _ROOT)]]
+        if not stale and set(old) == set(digests):
+            return False
+        for p in stale:
+            for d in _cache_dirs([p]):
+                for f in _cache_files(p, d):
                     try:
                         os.remove(f)
                     except OSError:
@@ -86,7 +170,7 @@ def refresh_stale_kernel_cache() -> bool:
         os.makedirs(stamp_dir, exist_ok=True)
         tmp = f"{stamp_path}.{os.getpid()}"
         with open(tmp, "w") as f:
-            f.write(stamp)
+            json.dump(digests, f, indent=0, sort_keys=True)
         os.replace(tmp, stamp_path)
         return True
     except OSError:
