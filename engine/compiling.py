@@ -6,10 +6,13 @@ compiled code is cached on disk, so later runs load it in a few seconds. Whoever
 to run kernels for the first time in a process calls ``notice(area)``; when the cache of
 that area's kernels is cold it prints one line to stderr, once per process::
 
-    menagerie: compiling the runtime's numba kernels (first run; about 60 s, cached for later runs)
+    menagerie: compiling the runtime's numba kernels (first run; about 60 s, cached for later runs) ...... done in 58 s
 
-``MENAGERIE_QUIET=1`` silences it. ``cold_sources`` says which kernel files have nothing
-cached; ``estimate_seconds`` the rough time it would take (figures measured on the
+The line is written at once and then grows: a dot every few seconds while numba compiles
+(``Progress``: a numba compile-event listener and a small watcher thread), and "done in
+N s" at the end of the first tick (``end_line``), or once no kernel has compiled for a
+moment. ``MENAGERIE_QUIET=1`` silences it. ``cold_sources`` says which kernel files have
+nothing cached; ``estimate_seconds`` the rough time it would take (figures measured on the
 project's 2-core machine with an empty cache, scaled by the share of cold files; numba
 compiles on one core, so more cores do not shorten it). The speed work on cold starts
 (issue 17) changes the figures in ``AREAS``, not the callers.
@@ -21,9 +24,12 @@ clock (``engine.response.tracking.track`` steps a scratch state first).
 
 from __future__ import annotations
 
+import atexit
 import glob
 import os
 import sys
+import threading
+import time
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -43,6 +49,9 @@ AREAS: dict[str, tuple[str, tuple[str, ...], float]] = {
 
 _announced = False
 _checked: set[str] = set()
+#: True while the compiling line is open (its progress still being written).
+line_open = False
+_progress = None
 
 
 def _kernel_files(files) -> list[str]:
@@ -81,9 +90,17 @@ def estimate_seconds(area: str = "runtime") -> float:
     return seconds * len(cold_sources(area)) / total
 
 
+def end_line() -> None:
+    """End the compiling line now (" done in N s"): the runtime calls it after a tick
+    while ``line_open``, so what a program prints next starts on a line of its own."""
+    if _progress is not None:
+        _progress.close()
+
+
 def notice(area: str = "runtime", stream=None) -> bool:
-    """Print the compiling line once per process when ``area``'s kernels are not cached.
-    Returns whether it printed. Each area is looked at once per process (a few globs)."""
+    """Print the compiling line once per process when ``area``'s kernels are not cached,
+    then its progress (``Progress``). Returns whether it printed. Each area is looked at
+    once per process (a few globs)."""
     global _announced
     if _announced or area in _checked or os.environ.get("MENAGERIE_QUIET"):
         return False
@@ -97,6 +114,96 @@ def notice(area: str = "runtime", stream=None) -> bool:
     _announced = True
     what = AREAS[area][0]
     rough = f"about {round(seconds / 10) * 10:.0f} s" if seconds >= 15 else f"about {seconds:.0f} s"
-    print(f"menagerie: compiling {what} numba kernels (first run; {rough}, cached for later runs)",
-          file=stream or sys.stderr, flush=True)
+    out = stream or sys.stderr
+    out.write(f"menagerie: compiling {what} numba kernels (first run; {rough}, cached for later runs) ")
+    out.flush()
+    try:
+        global _progress, line_open
+        _progress = Progress(out)
+        line_open = True
+        _progress.start()
+    except Exception:   # no progress then; the line still ends
+        out.write("\n")
+        out.flush()
     return True
+
+
+class Progress:
+    """The compiling line's progress: a dot every ``DOT_S`` seconds while numba compiles,
+    then " done in N s" and the line's end once no kernel has compiled for ``QUIET_S``
+    seconds (numba compiles in the caller's thread; a daemon thread watches the compile
+    events). The line is ended at exit too, whatever happened."""
+
+    DOT_S = 5.0
+    QUIET_S = 1.5
+
+    def __init__(self, out):
+        self.out = out
+        self.t0 = time.perf_counter()
+        self.depth = 0             # compiles in progress (nested: a kernel's callees)
+        self.compiled = 0          # outermost compiles finished
+        self.last = self.t0        # when the last one finished
+        self.open = True
+        self.lock = threading.Lock()
+        self.listener = None
+
+    def start(self) -> None:
+        from numba.core import event
+
+        progress = self
+
+        class _Listener(event.Listener):
+            def on_start(self, ev):
+                with progress.lock:
+                    progress.depth += 1
+
+            def on_end(self, ev):
+                with progress.lock:
+                    progress.depth -= 1
+                    if progress.depth == 0:
+                        progress.compiled += 1
+                        progress.last = time.perf_counter()
+
+        self.listener = _Listener()
+        event.register("numba:compile", self.listener)
+        atexit.register(self.close)
+        threading.Thread(target=self._watch, name="menagerie-compile-progress", daemon=True).start()
+
+    def _watch(self) -> None:
+        next_dot = self.t0 + self.DOT_S
+        while self.open:
+            time.sleep(0.25)
+            now = time.perf_counter()
+            with self.lock:
+                idle = self.depth == 0 and self.compiled > 0 and now - self.last >= self.QUIET_S
+            if idle:
+                self.close()
+                return
+            if now >= next_dot:
+                next_dot = now + self.DOT_S
+                self._write(".")
+
+    def _write(self, text: str) -> None:
+        try:
+            self.out.write(text)
+            self.out.flush()
+        except (OSError, ValueError):   # a closed stream at exit
+            pass
+
+    def close(self) -> None:
+        """End the line (once): " done in N s" when kernels were compiled."""
+        global line_open
+        line_open = False
+        with self.lock:
+            if not self.open:
+                return
+            self.open = False
+            compiled, last = self.compiled, self.last
+        if self.listener is not None:
+            try:
+                from numba.core import event
+
+                event.unregister("numba:compile", self.listener)
+            except Exception:
+                pass
+        self._write(f" done in {last - self.t0:.0f} s\n" if compiled else "\n")

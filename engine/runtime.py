@@ -392,6 +392,8 @@ class Character:
         if self.response is not None and self.response.phase != "idle":
             self.response.tick(dt)                      # 9. impact response (engine.response)
         self._frame += 1
+        if compiling.line_open:                         # the first run's compiling line ends here
+            compiling.end_line()
 
     # -- impact response (engine.response.impact) ----------------------------------------
 
@@ -781,6 +783,8 @@ class Crowd:
         _check_dt(dt)
         for g in self._groups:
             g.tick(dt)
+        if compiling.line_open:
+            compiling.end_line()
 
 
 class _Group:

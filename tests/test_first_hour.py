@@ -9,6 +9,7 @@ compile line is what is tested.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -127,6 +128,41 @@ def test_a_cold_cache_is_announced_once_with_a_rough_time(tmp_path):
     env["MENAGERIE_QUIET"] = "1"
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True)
     assert p.stdout.split() == ["False", "False", "False"] and p.stderr == ""
+
+
+def test_the_compiling_line_shows_progress_and_ends_once(tmp_path):
+    """A dot every few seconds while numba compiles, " done in N s" and the line's end when
+    the compile is over: at the first tick's end (``end_line``) or, without one, after
+    a quiet moment (the watcher thread); in a fresh process with an empty cache."""
+    code = ("import sys, time\n"
+            "from numba import njit\n"
+            "from engine import compiling\n"
+            "compiling.Progress.DOT_S = 0.3\n"
+            "assert compiling.notice('runtime') and compiling.line_open\n"
+            "def f(x):\n"
+            "    s = 0.0\n"
+            "    for i in range(x):\n"
+            "        s += i ** 0.5\n"
+            "    return s\n"
+            "njit(f)(3); time.sleep(0.8)\n"       # dots while the watcher waits
+            "compiling.end_line(); print('after', compiling.line_open)\n"
+            "compiling.end_line()\n"              # once
+            "njit(lambda x: x + 1)(1)\n")        # later compiles are silent
+    env = {k: v for k, v in os.environ.items() if k != "MENAGERIE_QUIET"}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "empty")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["after", "False"]
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1, p.stderr
+    assert lines[0].startswith("menagerie: compiling") and ".." in lines[0], p.stderr
+    assert re.search(r" done in \d+ s$", lines[0]), p.stderr
+    # Without a tick to end it, the watcher ends the line once the compiles are over.
+    code2 = code.replace("compiling.end_line(); print('after', compiling.line_open)\n", "time.sleep(2.5)\n"
+                         "print('after', compiling.line_open)\n")
+    p = subprocess.run([sys.executable, "-c", code2], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert p.returncode == 0 and p.stdout.split() == ["after", "False"], p.stderr
+    assert re.search(r" done in \d+ s$", p.stderr.splitlines()[0]) and len(p.stderr.splitlines()) == 1, p.stderr
 
 
 def test_a_warm_cache_says_nothing(tmp_path, monkeypatch):
