@@ -4,11 +4,11 @@ On a fresh clone (or after a kernel source changed, see ``engine._cache``) the f
 of each numba kernel compiles it: a minute or more of silence before the first frame. The
 compiled code is cached on disk, so later runs load it in a few seconds. Whoever is about
 to run kernels for the first time in a process calls ``notice(area)``; when the cache of
-that area's kernels is cold it prints one line to stderr, once per process::
+that area's kernels is cold, one line goes to stderr, once per process::
 
     menagerie: compiling the runtime's numba kernels (first run; about 60 s, cached for later runs) ...... done in 58 s
 
-The line is written at once and then grows: a dot every few seconds while numba compiles
+The line is written when numba starts compiling and then grows: a dot every 5 s while it compiles
 (``Progress``: a numba compile-event listener and a small watcher thread), and "done in
 N s" at the end of the first tick (``end_line``), or once no kernel has compiled for a
 moment. ``MENAGERIE_QUIET=1`` silences it. ``cold_sources`` says which kernel files have
@@ -98,10 +98,10 @@ def end_line() -> None:
 
 
 def notice(area: str = "runtime", stream=None) -> bool:
-    """Print the compiling line once per process when ``area``'s kernels are not cached,
-    then its progress (``Progress``). Returns whether it printed. Each area is looked at
-    once per process (a few globs)."""
-    global _announced
+    """Announce, once per process, that ``area``'s kernels are not cached: the compiling
+    line and its progress are written when numba starts compiling (``Progress``).
+    Returns whether it announced. Each area is looked at once per process (a few globs)."""
+    global _announced, _progress, line_open
     if _announced or area in _checked or os.environ.get("MENAGERIE_QUIET"):
         return False
     _checked.add(area)
@@ -115,34 +115,37 @@ def notice(area: str = "runtime", stream=None) -> bool:
     what = AREAS[area][0]
     rough = f"about {round(seconds / 10) * 10:.0f} s" if seconds >= 15 else f"about {seconds:.0f} s"
     out = stream or sys.stderr
-    out.write(f"menagerie: compiling {what} numba kernels (first run; {rough}, cached for later runs) ")
-    out.flush()
+    header = f"menagerie: compiling {what} numba kernels (first run; {rough}, cached for later runs) "
     try:
-        global _progress, line_open
-        _progress = Progress(out)
+        _progress = Progress(out, header)
         line_open = True
         _progress.start()
-    except Exception:   # no progress then; the line still ends
-        out.write("\n")
+    except Exception:   # no progress then: the line alone
+        line_open = False
+        out.write(header + "\n")
         out.flush()
     return True
 
 
 class Progress:
-    """The compiling line's progress: a dot every ``DOT_S`` seconds while numba compiles,
-    then " done in N s" and the line's end once no kernel has compiled for ``QUIET_S``
-    seconds (numba compiles in the caller's thread; a daemon thread watches the compile
-    events). The line is ended at exit too, whatever happened."""
+    """The compiling line and its progress. The line is written when numba starts its
+    first compile (so what a program prints between ``notice`` and its first tick keeps
+    its own lines), then a dot every ``DOT_S`` seconds while it compiles, then " done in
+    N s" and the line's end: at the end of the first tick (``end_line``), or once no
+    kernel has compiled for ``QUIET_S`` seconds (numba compiles in the caller's thread; a
+    daemon thread watches the compile events), or at exit. Nothing is written when
+    nothing compiles."""
 
     DOT_S = 5.0
     QUIET_S = 1.5
 
-    def __init__(self, out):
+    def __init__(self, out, header: str):
         self.out = out
-        self.t0 = time.perf_counter()
+        self.header = header
+        self.t0 = None             # when the first compile started (the line was written)
         self.depth = 0             # compiles in progress (nested: a kernel's callees)
         self.compiled = 0          # outermost compiles finished
-        self.last = self.t0        # when the last one finished
+        self.last = 0.0            # when the last one finished
         self.open = True
         self.lock = threading.Lock()
         self.listener = None
@@ -156,6 +159,11 @@ class Progress:
             def on_start(self, ev):
                 with progress.lock:
                     progress.depth += 1
+                    first = progress.t0 is None and progress.open
+                    if first:
+                        progress.t0 = time.perf_counter()
+                if first:
+                    progress._write(progress.header)
 
             def on_end(self, ev):
                 with progress.lock:
@@ -170,15 +178,20 @@ class Progress:
         threading.Thread(target=self._watch, name="menagerie-compile-progress", daemon=True).start()
 
     def _watch(self) -> None:
-        next_dot = self.t0 + self.DOT_S
+        next_dot = None
         while self.open:
             time.sleep(0.25)
             now = time.perf_counter()
             with self.lock:
+                begun = self.t0 is not None
                 idle = self.depth == 0 and self.compiled > 0 and now - self.last >= self.QUIET_S
+            if not begun:
+                continue
             if idle:
                 self.close()
                 return
+            if next_dot is None:
+                next_dot = self.t0 + self.DOT_S
             if now >= next_dot:
                 next_dot = now + self.DOT_S
                 self._write(".")
@@ -198,7 +211,7 @@ class Progress:
             if not self.open:
                 return
             self.open = False
-            compiled, last = self.compiled, self.last
+            t0, compiled, last = self.t0, self.compiled, self.last
         if self.listener is not None:
             try:
                 from numba.core import event
@@ -206,4 +219,5 @@ class Progress:
                 event.unregister("numba:compile", self.listener)
             except Exception:
                 pass
-        self._write(f" done in {last - self.t0:.0f} s\n" if compiled else "\n")
+        if t0 is not None:
+            self._write(f" done in {max(last, t0) - t0:.0f} s\n" if compiled else "\n")
