@@ -74,7 +74,10 @@ def test_a_change_drops_only_the_kernels_that_see_it(tmp_path, monkeypatch):
         os.path.join("engine", "a", "_dep.py"), os.path.join("engine", "a", "_kernels.py"),
         os.path.join("engine", "b", "_kernels.py")]
     assert _cache.refresh_stale_kernel_cache() is True
+    parse = _cache._imports
+    monkeypatch.setattr(_cache, "_imports", None)   # unchanged files are not parsed again (the stamp keeps the graph)
     assert _cache.refresh_stale_kernel_cache() is False
+    monkeypatch.setattr(_cache, "_imports", parse)
 
     def fake_cache(rel):
         path = str(src / rel)
