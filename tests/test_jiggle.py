@@ -288,3 +288,52 @@ def test_flexibility_heuristic_orders(creature):
         body.extents = tuple(10 * v for v in body.extents)
     big = build_creature(big_def)
     assert JiggleRig.for_creature(big).omega[b("tail1")] < rig.omega[b("tail1")]  # size
+
+
+def _lift(rot, joint=(0.0, 0.0, 0.05), extent=(0.041, 0.005, 0.025), offset=(0.041, 0.0, 0.0)):
+    """The ground lift of one box (``engine.jiggle._kernels._ground_contact``) turned as
+    ``rot`` about a joint at ``joint``, on the plane z = 0: the lifted rotation."""
+    from engine.jiggle import _kernels as JK
+
+    q = np.array(rot, float)
+    JK._ground_contact(q, np.array(joint, float), np.array(offset, float), np.array(extent, float),
+                       np.array([0.0, 0.0, 1.0, 0.0]), np.zeros((8, 3)), np.zeros(4))
+    return q
+
+
+def _angle(a, b):
+    return 2.0 * np.arccos(min(abs(float(np.dot(a, b))), 1.0))
+
+
+def _lowest(rot, joint=(0.0, 0.0, 0.05), extent=(0.041, 0.005, 0.025), offset=(0.041, 0.0, 0.0)):
+    origin = np.array(joint) + quat_rotate(rot, np.array(offset))
+    return min(float((origin + quat_rotate(rot, np.array(extent) * np.array(s)))[2])
+               for s in np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).T.reshape(-1, 3))
+
+
+def test_the_ground_lift_is_continuous_as_the_lowest_corner_changes():
+    """A flat body (a bat's tail membrane: 8 x 5 x 1 cm, wide in the plane it pitches in)
+    pitched into the ground from a joint 5 cm up, rolled a hair either side of level: its
+    two far corners swap which one is lowest, and the lifted pose must not jump. The rule
+    that lifted the lowest corner about its own arm turned the body one way or the other
+    (0.87 rad apart in one frame of the grid, on a still pelvis)."""
+    pitch = quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), 1.2)      # far end down into the ground
+    worst = 0.0
+    for eps in (1e-4, 1e-3):
+        roll_p = quat_mul(pitch, quat_from_axis_angle(np.array([1.0, 0.0, 0.0]), eps))
+        roll_m = quat_mul(pitch, quat_from_axis_angle(np.array([1.0, 0.0, 0.0]), -eps))
+        a, b = _lift(roll_p), _lift(roll_m)
+        assert _lowest(roll_p) < -0.01 and _lowest(a) > -1e-4 and _lowest(b) > -1e-4, "lifted onto the plane"
+        worst = max(worst, _angle(a, b) / (2 * eps))
+    assert worst < 5.0, f"lifted rotations differ by {worst:.1f} x the roll between the inputs"
+
+
+def test_the_ground_lift_does_not_chase_what_no_turn_lifts():
+    """A box centred on its joint, the joint at the ground (a jaw on a head put there by the
+    IK): turning it about the joint lifts one end and sinks the other, so the lift leaves it
+    where its lowest point is highest instead of swinging it (0.5 rad a frame on a snake)."""
+    tilt = quat_from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.15)
+    q = _lift(tilt, joint=(0.0, 0.0, 0.0), extent=(0.04, 0.03, 0.005), offset=(0.0, 0.0, 0.003))
+    assert _angle(q, tilt) < 0.2
+    assert _lowest(q, (0.0, 0.0, 0.0), (0.04, 0.03, 0.005), (0.0, 0.0, 0.003)) >= \
+        _lowest(tilt, (0.0, 0.0, 0.0), (0.04, 0.03, 0.005), (0.0, 0.0, 0.003)) - 1e-9

@@ -69,6 +69,13 @@ RATE = 0.12
 #: Largest change of a hand-off twist in a 60 Hz frame, rad (under the validation grid's
 #: 0.25 rad/frame warning).
 TWIST_RATE = 0.15
+#: Largest turn of the ground lift in one step, rad, and the samples of the turn it cuts
+#: back from (``_ground_contact``).
+LIFT_MAX = 1.0
+LIFT_SAMPLES = 8
+#: A deep corner asks the ground lift for at most this many times its depth over the body's
+#: reach, in radians, per step (``_ground_contact``).
+LIFT_RATE = 3.0
 #: A hand-off twist below this (rad, and rad per spring period for its rate) sleeps.
 TWIST_SLEEP = 1e-4
 
@@ -112,7 +119,7 @@ def jiggle_kernel(
     offset = np.empty(3)
     tmp = np.empty(3)
     tmp2 = np.empty(3)
-    corner = np.empty(3)
+    corners = np.empty((8, 3))
     # Rigid chain pose of every passive body (into the scratch ``chain_*``): joint position
     # and rotation it would have at its rest offsets below its driven ancestor (bodies are
     # ordered parents first).
@@ -274,13 +281,22 @@ def jiggle_kernel(
             # on the ground rests on it). Its box's lowest corner is lifted onto the plane by
             # turning the body about its joint, and the spring takes the lifted tip as its
             # state, with no velocity into the ground.
-            if _ground_contact(final_rot, joint_world, body_joint_offset[i], body_extent[i], ground, corner,
+            if _ground_contact(final_rot, joint_world, body_joint_offset[i], body_extent[i], ground, corners,
                                turn):
                 quat_rotate_into(final_rot, jig_lever[i], tmp2)
                 vn = 0.0
+                e2 = 0.0
                 for k in range(3):
                     state_err[i, k] = tmp2[k] - lever_rigid[k] + soft * tmp[k]
                     vn += state_err_vel[i, k] * ground[k]
+                    e2 += state_err[i, k] * state_err[i, k]
+                # kept within the clamp above (else the next step clamps it back, and a
+                # body held far out of its rigid pose by the ground, a snake's tongue
+                # under its jaw, is lifted and dropped in turns, 0.7 rad a frame)
+                cap = HANDOFF_SHARE * lever_len0
+                if e2 > cap * cap:
+                    for k in range(3):
+                        state_err[i, k] *= cap / np.sqrt(e2)
                 if vn < 0.0:
                     for k in range(3):
                         state_err_vel[i, k] -= vn * ground[k]
@@ -294,61 +310,149 @@ def jiggle_kernel(
 
 
 @njit(cache=True)
-def _ground_contact(rot, joint, joint_offset, extent, ground, corner, dq):
+def _ground_contact(rot, joint, joint_offset, extent, ground, arms, dq):
     """Lift a box hanging at ``joint`` (its origin at ``joint + rot joint_offset``) out of
-    the ground plane by turning ``rot`` in place about the joint: the lowest corner rises
-    onto the plane (two small-angle steps; at most 0.5 rad each). Returns whether it
+    the ground plane by turning ``rot`` in place about the joint. Returns whether it
     turned. A box far above the plane (origin higher than its half-diagonal) costs one
-    dot product."""
+    dot product; ``arms`` (8, 3) and ``dq`` (4,) are scratch.
+
+    The turn is about one horizontal axis k: the deep corners' own lift axes (a x n for a
+    corner at arm a from the joint) summed by depth, so two far corners nearly level pull
+    together and the body pitches without rolling between them. The rule this replaces
+    lifted the lowest corner alone about its own arm: a flat body lying on the ground (a
+    bat's tail membrane on its back) rolled one way in one frame and the other way in the
+    next as its two far corners took turns being lowest (0.87 rad in a frame on a still
+    pelvis), and a symmetric one lying flat (an inchworm's jaw) had a tie between its left
+    and right. Under a turn t about k a corner's height is b + A cos t + B sin t, so each
+    deep corner's smallest turn out is exact; the turn is the largest of them (continuous
+    as corners change rank), each at most ``LIFT_RATE`` times its depth over the body's
+    reach (a corner near the axis, beside the joint, whose depth is mostly its parent's,
+    is lifted over frames, not in one jump), and at most ``LIFT_MAX``. It fades out where
+    the deep corners' axes cancel (deep corners on both sides of the joint: no turn about
+    the joint lifts the box as a whole) and where the joint itself is deeper than a
+    quarter of the body's reach (the parent's depth: a snake's tongue under a jaw in the
+    ground swung 1.8 rad a frame). Last, the turn is cut back to where the box's lowest
+    point is highest (each corner asks for its own turn, and lifting one end of a box
+    centred on its joint sinks the other: a snake's jaw rocked 0.5 rad a frame)."""
     ox, oy, oz = quat_rotate_t(rot, joint_offset)
-    ox += joint[0]
-    oy += joint[1]
-    oz += joint[2]
     r = np.sqrt(extent[0] ** 2 + extent[1] ** 2 + extent[2] ** 2)
-    if ox * ground[0] + oy * ground[1] + oz * ground[2] - ground[3] >= r:
+    hj = joint[0] * ground[0] + joint[1] * ground[1] + joint[2] * ground[2] - ground[3]
+    if hj + ox * ground[0] + oy * ground[1] + oz * ground[2] >= r:
         return False
-    turned = False
-    for _ in range(2):
-        ox, oy, oz = quat_rotate_t(rot, joint_offset)
-        low = 1e300
-        for sx in (-1.0, 1.0):
-            for sy in (-1.0, 1.0):
-                for sz in (-1.0, 1.0):
-                    cx, cy, cz = quat_rotate_t4(rot, sx * extent[0], sy * extent[1], sz * extent[2])
-                    cx += joint[0] + ox
-                    cy += joint[1] + oy
-                    cz += joint[2] + oz
-                    h = cx * ground[0] + cy * ground[1] + cz * ground[2] - ground[3]
-                    if h < low:
-                        low = h
-                        corner[0], corner[1], corner[2] = cx, cy, cz
-        depth = -low
-        if depth <= 1e-9:
-            break
-        # arm from the joint to the corner; turning it about arm x n raises it
-        ax, ay, az = corner[0] - joint[0], corner[1] - joint[1], corner[2] - joint[2]
-        up = ax * ground[0] + ay * ground[1] + az * ground[2]
-        hx, hy, hz = ax - up * ground[0], ay - up * ground[1], az - up * ground[2]
-        horizontal = np.sqrt(hx * hx + hy * hy + hz * hz)
-        kx = ay * ground[2] - az * ground[1]
-        ky = az * ground[0] - ax * ground[2]
-        kz = ax * ground[1] - ay * ground[0]
-        kn = np.sqrt(kx * kx + ky * ky + kz * kz)
-        if horizontal < 1e-9 or kn < 1e-12:
-            break                 # the corner is straight below the joint: no turn lifts it
-        angle = min(depth / horizontal, 0.5)
-        s = np.sin(0.5 * angle) / kn
-        dq[0] = np.cos(0.5 * angle)
-        dq[1] = kx * s
-        dq[2] = ky * s
-        dq[3] = kz * s
-        w0, x0, y0, z0 = rot[0], rot[1], rot[2], rot[3]
-        rot[0] = dq[0] * w0 - dq[1] * x0 - dq[2] * y0 - dq[3] * z0
-        rot[1] = dq[0] * x0 + dq[1] * w0 + dq[2] * z0 - dq[3] * y0
-        rot[2] = dq[0] * y0 - dq[1] * z0 + dq[2] * w0 + dq[3] * x0
-        rot[3] = dq[0] * z0 + dq[1] * y0 - dq[2] * x0 + dq[3] * w0
-        turned = True
-    return turned
+    # corners relative to the joint, the axis (deep corners' lift axes by depth), the reach
+    reach = 0.0
+    kx = ky = kz = 0.0
+    tot = 0.0
+    m = 0
+    deep = False
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            for sz in (-1.0, 1.0):
+                cx, cy, cz = quat_rotate_t4(rot, sx * extent[0], sy * extent[1], sz * extent[2])
+                ax = cx + ox
+                ay = cy + oy
+                az = cz + oz
+                arms[m, 0] = ax
+                arms[m, 1] = ay
+                arms[m, 2] = az
+                m += 1
+                reach = max(reach, np.sqrt(ax * ax + ay * ay + az * az))
+                d = -(hj + ax * ground[0] + ay * ground[1] + az * ground[2])
+                if d > 1e-9:
+                    deep = True
+                    ux = ay * ground[2] - az * ground[1]
+                    uy = az * ground[0] - ax * ground[2]
+                    uz = ax * ground[1] - ay * ground[0]
+                    kx += d * ux
+                    ky += d * uy
+                    kz += d * uz
+                    tot += d * np.sqrt(ux * ux + uy * uy + uz * uz)
+    if not deep or reach < 1e-12:
+        return False
+    kn = np.sqrt(kx * kx + ky * ky + kz * kz)
+    x = 0.0 if tot < 1e-18 else min(max((kn / tot - 0.2) / 0.3, 0.0), 1.0)
+    confidence = x * x * (3.0 - 2.0 * x)
+    x = min(max((hj + reach) / (0.75 * reach), 0.0), 1.0)
+    confidence *= x * x * (3.0 - 2.0 * x)
+    if confidence <= 0.0:
+        return False
+    kx /= kn
+    ky /= kn
+    kz /= kn
+    k_n = kx * ground[0] + ky * ground[1] + kz * ground[2]
+    angle = 0.0
+    for c in range(8):
+        ax, ay, az = arms[c, 0], arms[c, 1], arms[c, 2]
+        # height under a turn t: base + A cos t + B sin t
+        along = ax * kx + ay * ky + az * kz
+        base = hj + along * k_n
+        A = ax * ground[0] + ay * ground[1] + az * ground[2] - along * k_n
+        B = (ky * az - kz * ay) * ground[0] + (kz * ax - kx * az) * ground[1] + (kx * ay - ky * ax) * ground[2]
+        if base + A >= 0.0:
+            continue      # above the plane
+        R = np.sqrt(A * A + B * B)
+        if R < 1e-12:
+            continue
+        phi = np.arctan2(B, A)          # the turn that raises it most
+        if base + R <= 0.0:
+            t = phi       # never out: as high as it goes
+        else:             # R cos(t - phi) = -base
+            t = phi - np.arccos(min(max(-base / R, -1.0), 1.0))
+        t = min(t, LIFT_RATE * (-(base + A)) / reach)
+        if t > angle:
+            angle = t
+    angle = min(angle * confidence, LIFT_MAX)
+    if angle <= 1e-12:
+        return False
+    # The corners' turns are each their own: lifting one end of a box centred on its joint
+    # sinks the other (a snake's jaw, its joint in the ground, rocked 0.5 rad a frame).
+    # The turn is cut back to where the box's lowest point is highest over [0, angle]
+    # (sampled, then a parabola through the best sample and its neighbours).
+    best = 0
+    f_best = -1e300
+    for j in range(LIFT_SAMPLES + 1):
+        f = _lowest_corner(arms, hj, kx, ky, kz, k_n, ground, angle * j / LIFT_SAMPLES)
+        if f > f_best + 1e-12:
+            f_best = f
+            best = j
+    if best < LIFT_SAMPLES:
+        h = angle / LIFT_SAMPLES
+        f0 = _lowest_corner(arms, hj, kx, ky, kz, k_n, ground, h * max(best - 1, 0))
+        f2 = _lowest_corner(arms, hj, kx, ky, kz, k_n, ground, h * (best + 1))
+        den = f0 - 2.0 * f_best + f2
+        shift = 0.5 * (f0 - f2) / den if den < -1e-18 and best > 0 else 0.0
+        angle = h * (best + min(max(shift, -0.5), 0.5))
+        if angle <= 1e-12:
+            return False
+    s = np.sin(0.5 * angle)
+    dq[0] = np.cos(0.5 * angle)
+    dq[1] = kx * s
+    dq[2] = ky * s
+    dq[3] = kz * s
+    w0, x0, y0, z0 = rot[0], rot[1], rot[2], rot[3]
+    rot[0] = dq[0] * w0 - dq[1] * x0 - dq[2] * y0 - dq[3] * z0
+    rot[1] = dq[0] * x0 + dq[1] * w0 + dq[2] * z0 - dq[3] * y0
+    rot[2] = dq[0] * y0 - dq[1] * z0 + dq[2] * w0 + dq[3] * x0
+    rot[3] = dq[0] * z0 + dq[1] * y0 - dq[2] * x0 + dq[3] * w0
+    return True
+
+
+@njit(cache=True, inline="always")
+def _lowest_corner(arms, hj, kx, ky, kz, k_n, ground, t):
+    """Height of the lowest of the corners ``arms`` (from a joint at height ``hj``) after
+    a turn t about the horizontal unit axis k."""
+    c = np.cos(t)
+    s = np.sin(t)
+    low = 1e300
+    for i in range(arms.shape[0]):
+        ax, ay, az = arms[i, 0], arms[i, 1], arms[i, 2]
+        along = ax * kx + ay * ky + az * kz
+        A = ax * ground[0] + ay * ground[1] + az * ground[2] - along * k_n
+        B = (ky * az - kz * ay) * ground[0] + (kz * ax - kx * az) * ground[1] + (kx * ay - ky * ax) * ground[2]
+        h = hj + along * k_n + A * c + B * s
+        if h < low:
+            low = h
+    return low
 
 
 @njit(cache=True, inline="always")
