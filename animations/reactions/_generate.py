@@ -37,10 +37,14 @@ def channel(name, select, pos=None, rot=None, posspec="{mode: rest, scale: creat
         out += [key(t, aa=a) for t, a in rot]
     return "\n".join(out)
 
-def clip(name, desc, length, chans, loop=False, branches=None):
+def clip(name, desc, length, chans, loop=False, branches=None, follows=None):
+    """``follows``: the clip this one continues (the impact response plays it after that one;
+    the validation grid plays that one first, never this one from the rest pose)."""
     head = [ "format: 1", f"name: {name}", f'description: "{desc}"', f"length: {length}"]
     if loop:
         head.append("loop: true")
+    if follows:
+        head.append(f"follows: {follows}")
     if branches:
         head.append("branches: {" + ", ".join(f"{k}: {str(v).lower()}" for k, v in branches.items()) + "}")
     head.append("channels:")
@@ -197,7 +201,7 @@ def lie(d, low):
     ]
     sfx = "_low" if low else ""
     return clip(f"lie_{d}{sfx}", f"Lying after a fall to the {d}: the pose fall_{d}{sfx} ends on, breathing (loops).",
-                2.0, chans, loop=True, branches=branches(low))
+                2.0, chans, loop=True, branches=branches(low), follows=f"fall_{d}{sfx}")
 
 def get_up(d, low):
     L = lie_pose(d, low)
@@ -216,7 +220,7 @@ def get_up(d, low):
     ]
     sfx = "_low" if low else ""
     return clip(f"get_up_{d}{sfx}", f"Get up after lie_{d}{sfx}: push up to a crouch over the feet, then rise to "
-                f"the rest pose.", T, chans, branches=branches(low))
+                f"the rest pose.", T, chans, branches=branches(low), follows=f"lie_{d}{sfx}")
 
 out = {"brace": brace(), "brace_low": brace(True)}
 for d in DIRS:

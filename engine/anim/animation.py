@@ -144,6 +144,8 @@ class Animation:
     loop: bool = False
     branches: tuple[tuple[str, bool | int], ...] = ()
     targets: tuple[tuple[str, tuple[float, float, float] | None], ...] = ()
+    follows: str | None = None   # the clip this one continues (a fall's lying, then getting up): it
+                                 # starts from that clip's end, never from the rest pose
     path: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -303,6 +305,9 @@ def validate_animation(a: Animation) -> None:
         seen_targets.add(name)
         if default is not None and (len(default) != 3 or not all(math.isfinite(v) for v in default)):
             fail(f"target {name!r}: default must be 3 finite numbers", fld="targets")
+    if a.follows is not None and (not isinstance(a.follows, str) or not a.follows or a.follows == a.name):
+        fail(f"follows must name another animation (the clip this one continues), got {a.follows!r}",
+             fld="follows")
     if not a.channels:
         fail("an animation needs at least one channel", fld="channels")
     names = set()

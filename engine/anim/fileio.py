@@ -7,6 +7,8 @@ File format 1::
     description: Wave one grasper overhead (rest-relative position, absolute rotation).
     length: 2.0                 # seconds
     loop: true                  # optional, default false
+    follows: wave_start         # optional: the clip this one continues (played after it, never
+                                # from the rest pose: the validation grid plays that clip first)
     branches: {has_graspers: true}     # optional; absent predicates are "ignore"
     targets:                    # optional: external targets and a preview default from the
       fruit: [0.8, 0.3, 0.9]    # ground centre, x, y in largest sides, z in heights
@@ -48,7 +50,7 @@ from engine.errors import DataError
 from engine.model.fileio import read_yaml_located
 from engine.query import Query
 
-_TOP = ("format", "name", "description", "length", "loop", "branches", "targets", "channels")
+_TOP = ("format", "name", "description", "length", "loop", "follows", "branches", "targets", "channels")
 _CHANNEL = ("name", "select", "secondary", "target", "position", "rotation", "blend_group", "priority",
             "variant_group", "side", "mirror", "keys")
 _KEYS = ("position", "rotation", "weight", "events")
@@ -280,6 +282,8 @@ def parse_animation_text(text: str, path: str | None = None) -> Animation:
         kw["description"] = d
     if "loop" in top:
         kw["loop"] = _bool(top["loop"], ctx, "loop")
+    if "follows" in top:
+        kw["follows"] = _str(top["follows"], ctx, "follows")
     if "branches" in top:
         from engine.anim.animation import BRANCH_PREDICATES, COUNT_PREDICATES
 
@@ -359,6 +363,8 @@ def animation_to_text(a: Animation) -> str:
         out.append(f"description: {_s(a.description)}")
     out.append(f"length: {_f(a.length)}")
     out.append(f"loop: {'true' if a.loop else 'false'}")
+    if a.follows is not None:
+        out.append(f"follows: {_s(a.follows)}")
     if a.branches:
         out.append("branches: " + _flow({k: v for k, v in a.branches}))
     if a.targets:

@@ -650,12 +650,16 @@ class ImpactResponse:
         ch.play(self.clip, variant=e.variant, fade=self.params.handoff_fade, start_time=start, speed=e.speed,
                 fade_out=self.params.resume_fade)
         name = self.clip.name
-        if name.startswith("fall_"):
-            # a fall goes on into lying and getting up (animations/reactions), then what played before
-            for nxt in ("lie_", "get_up_"):
-                a = self.library.by_name.get(nxt + name[5:])
-                if a is not None:
-                    ch.queue(a, fade=0.2, fade_out=0.2, loop=False)
+        # a fall goes on into the clips that continue it (``follows``: lying, then getting
+        # up, animations/reactions), then what played before
+        last = self.clip
+        nxt = self.library.followed_by.get(name)
+        for _ in range(8):
+            if nxt is None:
+                break
+            ch.queue(nxt, fade=0.2, fade_out=0.2, loop=False)
+            last = nxt
+            nxt = self.library.followed_by.get(nxt.name)
         self._settle_at = None
         if name.startswith("stagger_"):
             # A stagger ends in the rest pose moved by d (animations/reactions): when it ends the
@@ -667,8 +671,11 @@ class ImpactResponse:
             c, sn = math.cos(self._place_yaw), math.sin(self._place_yaw)
             self._settle_d = np.array([c * dc[0] - sn * dc[1], sn * dc[0] + c * dc[1], 0.0])
             self._settle_at = self._handoff + (self.clip.length - self.clip_time) / e.speed - 1.5 * dt
-        elif not self.clip.loop and self._resume is not None and self._resume is not self.clip:
-            ch.queue(self._resume, fade=self.params.resume_fade)       # after a one-shot reaction: what played before
+        elif (last is not self.clip or not self.clip.loop) and self._resume is not None \
+                and self._resume is not self.clip:
+            # after a one-shot reaction (or the chain that continues it: a lying entered in the
+            # middle goes on into getting up): what played before
+            ch.queue(self._resume, fade=self.params.resume_fade)
         self._armed = True
 
     def _settle(self) -> None:

@@ -251,6 +251,8 @@ class MotionLibrary:
         self.entries = [jobs[i] for i in keep]
         self.clips = [e.animation for e in self.entries]
         self.by_name = {e.animation.name: e.animation for e in self.entries if e.animation is not None}
+        # what continues each clip (``Animation.follows``: a fall's lying, then getting up)
+        self.followed_by = {a.follows: a for a in self.by_name.values() if a.follows is not None}
         self.pos = np.concatenate([rec[i][0] for i in keep])
         self.rot = np.concatenate([rec[i][1] for i in keep])
         self.clip_of = np.concatenate([np.full(rec[i][0].shape[0], j, np.int64) for j, i in enumerate(keep)])

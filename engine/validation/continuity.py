@@ -23,7 +23,8 @@ Metrics (``continuity(rec, ctx)``):
                                           fade + 0.1 s) and from the fade-out on (the last
                                           fade + 0.1 s of the clip, and the settle after it)
 ``return_pose`` (size)                    after the settle, how far any body is from where a
-                                          character playing nothing stands
+                                          character playing nothing stands (not for a clip
+                                          another continues: it hands over to that one)
 
 Body classes (``detail``): ``ik`` (posed by the IK that frame), ``passive`` (Jiggles), and
 ``free`` (eyes, ears, spikes and details: small bodies nothing animates).
@@ -109,7 +110,9 @@ def continuity(rec, ctx) -> list[Measure]:
     m.series = None
     out.append(m)
 
-    if ctx.rest_pos is not None and rec.error is None and n >= 1:
+    # a clip another continues (a fall, then lying: ``engine.anim.chain``) hands over to it
+    # instead of returning to the rest pose; that clip's cell judges where it ends
+    if ctx.rest_pos is not None and rec.error is None and n >= 1 and "then" not in rec.meta:
         ref = ctx.rest_pos[min(n, len(ctx.rest_pos)) - 1]
         d = np.linalg.norm(rec.world_pos[-1] - ref, axis=-1) / ctx.scale
         b = int(np.argmax(d))

@@ -4,7 +4,11 @@ A cell is one animation variant on one creature with one set of external targets
 by ``engine.Character`` at 60 Hz exactly as a game plays it: ``play`` with the default
 fade, the whole clip (a looping clip: two cycles, then ``stop`` with the default fade),
 then ``settle`` seconds more so the fade-out and the pose the character returns to are
-seen. Every tick's output is copied into preallocated arrays (``Recording``):
+seen. A clip that continues others (``follows``: a fall's lying, then its getting up;
+``engine.anim.chain``) starts where a game starts it, after them (played unrecorded from
+the rest pose), and a clip that another continues hands over to it at its end instead of
+stopping (the settle then shows the hand-over; ``meta['then']`` names it). Every tick's
+output is copied into preallocated arrays (``Recording``):
 
     t (nf,)                       time since play, s (after the tick)
     clip_time (nf,)               the clip's local time, s (-1 once it has ended)
@@ -37,6 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from engine.anim.animation import Animation
+from engine.anim.chain import lead_in, successor
 from engine.model.creature import Creature
 
 #: Frame rate of every grid cell (a game's usual 60 Hz).
@@ -112,13 +117,26 @@ def record_cell(creature: Creature, animation: Animation, variant: int = 0, targ
     ch = character if character is not None else Character(creature)
     for name, p in rec.targets.items():
         ch.set_target(name, p)
-    handle = ch.play(animation, variant=variant, loop=looping, fade=fade)
+    then = successor(animation)
+    try:
+        handle = _start(ch, animation, variant, looping, fade, dt)
+    except Exception as exc:  # noqa: BLE001 - a failing cell is reported, never raised
+        rec.error = f"{type(exc).__name__}: {exc}"
+        rec.error_frame = 0
+        _truncate(rec, 0)
+        return rec
     rec.variant_id = handle.payload.bound.variant.id
+    if then is not None:
+        rec.meta["then"] = then.name
+        if not looping:      # it takes over as this clip ends (a fall goes on lying)
+            ch.queue(then, fade=fade, fade_out=fade, loop=False)
     s, r = ch._stack, ch._row
     a = s.player
     slot = handle.slot
     for i in range(n):
-        if looping and i == n_play:
+        if looping and i == n_play - 1 and then is not None:
+            ch.queue(then, fade=fade, fade_out=fade, loop=False)   # at the end of this cycle
+        elif looping and i == n_play and then is None:
             ch.stop(handle, fade=fade)
         t0 = time.perf_counter()
         try:
@@ -144,6 +162,27 @@ def record_cell(creature: Creature, animation: Animation, variant: int = 0, targ
         rec.driven[i] = s.driven[r]
         _note_plan(rec, i, ch)
     return rec
+
+
+def _start(ch, animation: Animation, variant: int, looping: bool, fade: float, dt: float):
+    """Start ``animation`` on ``ch`` as a game does: at once, or, for a clip that continues
+    others (``follows``, ``engine.anim.chain``), after playing them from the rest pose,
+    ticked unrecorded until it starts (fading in over the last one's end). Returns its
+    handle."""
+    chain = lead_in(animation)
+    if not chain:
+        return ch.play(animation, variant=variant, loop=looping, fade=fade)
+    ch.play(chain[0], loop=False, fade=fade)
+    for prev in chain[1:]:
+        ch.queue(prev, fade=fade, fade_out=fade, loop=False)
+    h = ch.queue(animation, variant=variant, fade=fade, fade_out=fade, loop=looping)
+    most = int((sum(p.length for p in chain) + 1.0) / dt)
+    for _ in range(most):
+        if h.playing:
+            return h
+        ch.tick(dt)
+    raise RuntimeError(f"{animation.name} did not start after {', '.join(p.name for p in chain)} "
+                       f"({most * dt:.1f} s)")
 
 
 def _note_plan(rec: Recording, i: int, ch) -> None:
@@ -191,12 +230,18 @@ def record_cells(creature: Creature, specs: list[PlaySpec], *, fps: int = FPS, s
     from engine.runtime import Character, Crowd
 
     dt = 1.0 / fps
+    # clips that continue others or are continued are played alone (``record_cell``): their
+    # lead-in differs from member to member
+    out: list[Recording | None] = [None] * len(specs)
+    alone = [k for k, sp in enumerate(specs) if sp.animation.follows is not None or successor(sp.animation)]
+    for k in alone:
+        out[k] = record_cell(creature, specs[k].animation, specs[k].variant, specs[k].targets, fps=fps,
+                             settle=settle, fade=fade)
     lengths = []
     for sp in specs:
         seconds, _ = play_seconds(sp.animation)
         lengths.append(max(int(round(seconds * fps)), 1) + int(round(settle * fps)))
-    order = sorted(range(len(specs)), key=lambda k: lengths[k])
-    out: list[Recording | None] = [None] * len(specs)
+    order = sorted((k for k in range(len(specs)) if out[k] is None), key=lambda k: lengths[k])
     for start in range(0, len(order), crowd):
         group = order[start:start + crowd]
         chars = [Character(creature) for _ in group]
