@@ -225,7 +225,7 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
                       body_parent, body_local_rot, body_local_joint, body_joint_offset,
                       jig_lever, jig_omega, jig_zeta, jig_max_err, jig_sleep, jig_follow, body_extent,
                       ground, ground_set, jig_err, jig_err_vel, jig_target, jig_target_vel, jig_active,
-                      jig_twist, jig_chain_joint, jig_chain_rot, dt, simulate):
+                      jig_twist, jig_contact, jig_chain_joint, jig_chain_rot, dt, simulate):
     """World pose of every body: the driven (IK) bodies carried by the character's world
     placement, then the others by Jiggles in world space (so walking makes ears bounce).
     The ground the passive bodies rest on is ``ground[c]`` (n . x = d) where the gait set
@@ -254,7 +254,7 @@ def output_and_jiggle(driven, place_pos, place_rot, char_pos, char_rot, world_po
         jiggle_kernel(body_parent, body_local_rot, body_local_joint, body_joint_offset, jig_lever, jig_omega,
                       jig_zeta, jig_max_err, jig_sleep, jig_follow, body_extent, plane, driven[c], world_pos[c],
                       world_rot[c], jig_err[c], jig_err_vel[c], jig_target[c], jig_target_vel[c], jig_active[c],
-                      jig_twist[c], jig_chain_joint, jig_chain_rot, dt, simulate)
+                      jig_twist[c], jig_contact[c], jig_chain_joint, jig_chain_rot, dt, simulate)
 
 
 #: A standing foot the clip moves this far from its rest spot (a fraction of its leg's

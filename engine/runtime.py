@@ -136,6 +136,8 @@ class _Stack:
         self.jig_target_vel = np.zeros((n, nb, 3))
         self.jig_active = np.zeros((n, nb), np.bool_)
         self.jig_twist = np.zeros((n, nb, 2))
+        self.jig_contact = np.zeros((n, nb, 4))   # the turn the ground holds each passive body by
+        self.jig_contact[:, :, 0] = 1.0
         #: The ground passive bodies rest on (n . x = d, world), where the gait sets it;
         #: otherwise the plane the character stands on (through its placement).
         self.ground = np.tile(np.array([0.0, 0.0, 1.0, 0.0]), (n, 1))
@@ -161,8 +163,8 @@ class _Stack:
 
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
-                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "jig_twist", "ik_bad", "stand",
-                 "ground", "ground_set", "prev_world_pos", "prev_world_rot")
+                 "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "jig_twist", "jig_contact",
+                 "ik_bad", "stand", "ground", "ground_set", "prev_world_pos", "prev_world_rot")
 
     def copy_row(self, dst: int, src: _Stack, row: int) -> None:
         for name in self._PER_CHAR:
@@ -268,6 +270,7 @@ class Character:
         s.jig_err_vel[r] = 0.0
         s.jig_active[r] = False
         s.jig_twist[r] = 0.0
+        s.jig_contact[r] = (1.0, 0.0, 0.0, 0.0)
     @property
     def position(self) -> np.ndarray:
         return self._stack.place_pos[self._row].copy()
@@ -681,8 +684,8 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
             s.driven, s.place_pos, s.place_rot, s.char_pos, s.char_rot, s.world_pos, s.world_rot, c.body_parent,
             c.body_local_rot, c.body_local_joint, c.body_joint_offset, rig.lever, rig.omega, rig.zeta, rig.max_err,
             rig.sleep, rig.follow, c.body_extent, s.ground, s.ground_set, s.jig_err, s.jig_err_vel, s.jig_target,
-            s.jig_target_vel, s.jig_active, s.jig_twist, s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0, True),
-            slots=(28, 29))
+            s.jig_target_vel, s.jig_active, s.jig_twist, s.jig_contact, s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0,
+            True), slots=(29, 30))
     s.output_call.call(float(dt), bool(simulate))
 
 

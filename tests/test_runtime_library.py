@@ -57,13 +57,11 @@ PASSIVE_GROUND = ("a passive body (Jiggles) hanging from a body that is itself a
                   "contact turns it about its joint, and the joint is already low")
 PASSIVE_POP = ("a passive detail body (Jiggles) turning fast where the spine body it hangs from now swings to "
                "point at its neighbour's joint")
-DEEP_HINGE = ("a passive body whose joint the IK puts at or under the ground (the snake's tongue on a jaw 0.4 of "
-              "its height under it) or whose box reaches back past its hinge (the trex's jaw): no turn about the "
-              "joint lifts it out, so the jiggle's ground lift (engine/jiggle/_kernels.py _ground_contact) takes the "
-              "turn that raises its lowest point most and fades out as the joint sinks. The tongue swings in and "
-              "out of the ground with its joint (0.89 rad/frame; 0.46 with the lift before stop 34, which turned a "
-              "body about its lowest corner's own arm, by up to a radian a frame, and rocked flat bodies lying on "
-              "the ground); the jaw stays 2% of the height in (0.5% with that lift)")
+DEEP_HINGE = ("a passive body whose box reaches back past its hinge (the trex's jaw): no turn about the joint lifts "
+              "both ends out of the ground, so the jiggle's ground lift (engine/jiggle/_kernels.py _ground_contact) "
+              "takes the turn that raises its lowest point most; the jaw stays 2.9% of the height in (0.5% with the "
+              "lift before stop 34, which turned a body about its lowest corner's own arm, by up to a radian a "
+              "frame, and rocked flat bodies lying on the ground)")
 SPIDER_PALP = "the palps' goals are beyond what the palp's limb can reach in the pose the spine takes"
 SPINE_BRACE = ("a spine body held at a position goal braces its outward child's joint at its rest distance from the "
                "body's origin (engine/ik/plan.py); on random 107's pound_ground the head then turns 0.76 rad in one frame "
@@ -190,8 +188,7 @@ _known(PASSIVE_GROUND, "below_ground", "snake nod_at_target 0.4389; "
        "random_117 shrug 0.0813")
 _known(FOLDED_FADE, "rotation_pop", "mantis dance 0.5195")
 _known(PASSIVE_POP, "rotation_pop", "random_117 perform 0.5312")
-_known(DEEP_HINGE, "rotation_pop", "snake nod_at_target 0.8936")
-_known(DEEP_HINGE, "below_ground", "trex pick_up_rock 0.02077")
+_known(DEEP_HINGE, "below_ground", "trex pick_up_rock 0.0287")
 _known(ROOT_CHILD, "rotation_pop", "random_116 hug 0.7481")
 _known(ROOT_CHILD, "below_ground", "random_117 perform 0.0886")
 _known(SPINE_BRACE, "rotation_pop", "random_107 pound_ground 0.7554")

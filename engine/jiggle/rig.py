@@ -172,6 +172,8 @@ class JiggleState:
         self.target_vel = np.zeros((nbody, 3))
         self.active = np.zeros(nbody, np.bool_)
         self.twist = np.zeros((nbody, 2))          # hand-off twist about the lever, rad, and its rate
+        self.contact = np.zeros((nbody, 4))        # the turn the ground holds the body by (w-first)
+        self.contact[:, 0] = 1.0
         self.chain_joint = np.zeros((nbody, 3))     # kernel scratch (no state)
         self.chain_rot = np.zeros((nbody, 4))
 
@@ -180,6 +182,7 @@ class JiggleState:
         self.err[:] = 0.0
         self.err_vel[:] = 0.0
         self.twist[:] = 0.0
+        self.contact[:] = (1.0, 0.0, 0.0, 0.0)
         self.active[:] = False
 
 
@@ -206,5 +209,5 @@ def jiggle_step(rig: JiggleRig, state: JiggleState, driven: np.ndarray, world_po
     jiggle_kernel(c.body_parent, c.body_local_rot, c.body_local_joint, c.body_joint_offset,
                   rig.lever, rig.omega, rig.zeta, rig.max_err, rig.sleep, rig.follow, c.body_extent,
                   np.asarray(ground, dtype=float), driven, world_pos, world_rot,
-                  state.err, state.err_vel, state.target, state.target_vel, state.active, state.twist,
+                  state.err, state.err_vel, state.target, state.target_vel, state.active, state.twist, state.contact,
                   state.chain_joint, state.chain_rot, float(dt), bool(simulate))
