@@ -135,6 +135,7 @@ NSCRATCH = 13
 
 EPS = 1e-12
 GROUND_BIAS = 0.5      # outward share of a free limb particle's ground lift (``_ground_lift``)
+MOBILE = 0.25          # inverse-mass sum below which a length constraint is partly corrected (``relax_constraint``)
 
 
 # -- small vector and quaternion algebra on tuples -------------------------------------
@@ -416,12 +417,21 @@ def relax_constraint(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slop
     """One nonlinear length correction (Jakobsen 2001): move both endpoints along the
     constraint axis, in inverse proportion to their masses, by the soft response to how
     far the length is outside [lo, hi] * length. ``inv`` scales each particle's inverse
-    mass (goal particles get 1 - goal weight)."""
+    mass (goal particles get 1 - goal weight).
+
+    Where both ends are (nearly) pinned, their inverse masses summing below ``MOBILE``,
+    only that share of the error is corrected: a goal particle of weight 0.99999 beside a
+    pinned one took the whole correction (its share of the sum is 1 for any weight below
+    1, and 0 at 1), so a spine goal fading out from weight 1 moved its spine in its first
+    frame (random 5221 ``pound_ground``: 0.04 rad for weights x 0.99999). The correction
+    fades to none as the sum goes to 0; a constraint with a free end (the plan's inverse
+    masses are 0.25 and up) is corrected as before."""
     wa = inva * inv[a]
     wb = invb * inv[b]
     wsum = wa + wb
     if wsum <= 0.0:
         return
+    wsum = max(wsum, MOBILE)
     d = (pos[b, 0] - pos[a, 0], pos[b, 1] - pos[a, 1], pos[b, 2] - pos[a, 2])
     L = vnorm(d)
     if length <= 0.0:
@@ -453,6 +463,7 @@ def relax_delta(pos, inv, a, b, length, lo, hi, inva, invb, stiffness, slope, ba
     wsum = wa + wb
     if wsum <= 0.0:
         return zero, zero
+    wsum = max(wsum, MOBILE)
     d = (pos[b, 0] - pos[a, 0], pos[b, 1] - pos[a, 1], pos[b, 2] - pos[a, 2])
     L = vnorm(d)
     if L < EPS or length <= 0.0:
@@ -645,19 +656,21 @@ def _delegated_targets(P, goal_rot, goal_rot_w, goal_joint, dg_target):
 
 @njit(cache=True, _nrt=False, inline="always")
 def _share(w, inv_n):
-    """The pull per pin that adds up to ``w`` over the 1 / ``inv_n`` pins of a spine solve:
-    a goal of weight w pulled w of the way at every pin would end 1 - (1 - w)^n of the
-    way (weight 0.02 over 15 pins: 26%), so a fade would move the spine most of its way
-    in its first frames and snap at its last. Pulled 1 - (1 - w)^(1/n) each time, it
-    ends about w of the way: the pose follows the weight. (The limb phase blends its
-    targets by weight instead, ``_limb_phase``.)"""
+    """The pull per pin of a goal of weight ``w`` back to its weighted target
+    (``_weighted_target``) after each of the 1 / ``inv_n`` sweeps of a spine solve:
+    1 - (1 - w)^(1/n), so n pulls together take a displaced particle w of the way back
+    (weight 0.02 pulled 0.02 each time over 15 pins would take it 26% of the way: a light
+    goal would hold its particle as firmly as a heavy one). The particle's inverse mass is
+    1 - w, so what the constraints move it by vanishes as w goes to 1. (The limb phase
+    blends its targets by weight the same way, ``_limb_phase``.)"""
     if w <= 0.0 or w >= 1.0:
         return w
     return 1.0 - math.pow(1.0 - w, inv_n)
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first, inv_n):
+def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, first, inv_n,
+                   sp_rest, root_pos, root_rot):
     # The helpers called inside iteration loops take the plan arrays they read, not the
     # plan: an inlined ``P`` argument is a copy of 92 arrays (a reference count each).
     for d in range(dg_body.shape[0]):
@@ -666,9 +679,25 @@ def _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target
         if w <= 0.0 or (not first and w >= 1.0):
             continue
         i = dg_spine_particle[d]
-        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(dg_target, d), _share(w, inv_n)))
+        target = _weighted_target(sp_rest, root_pos, root_rot, i, v3(dg_target, d), w)
         if first:
+            set3(sp_pos, i, target)
             sp_inv[i] = min(sp_inv[i], 1.0 - w)
+        else:
+            set3(sp_pos, i, vlerp(v3(sp_pos, i), target, _share(w, inv_n)))
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _weighted_target(sp_rest, root_pos, root_rot, i, goal, w):
+    """Where a spine-phase goal of weight ``w`` holds its particle: ``w`` of the way from
+    its rest place (carried by the root) to the goal. The particle starts there (inverse
+    mass 1 - w) and is pulled back there after every sweep (``_share``). It used to start
+    ``_share(w)`` of the way to the goal itself and be pulled to the goal: the share's
+    slope is infinite at w = 1 (0.47 of the way at w = 0.999, all of it at 1), so a goal
+    fading out from weight 1 snapped the spine in its first frame (random 4259's chest at
+    the end of ``perform``: 0.68 rad with the hands' weights at 0.987)."""
+    rest = vadd(root_pos, qrot(root_rot, v3(sp_rest, i)))
+    return vlerp(rest, goal, w)
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -905,14 +934,14 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
         if i < 0:
             continue
         w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
-        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, 1.0 / (1 + int(prm[P_SPINE_OUTER])
-                                                                                   * int(prm[P_SPINE_INNER])))))
+        set3(sp_pos, i, _weighted_target(P.sp_rest, root_pos, root_rot, i, v3(goal_joint, gi), w))
         sp_inv[i] = 1.0 - w
     dg_body, dg_spine_particle = P.dg_body, P.dg_spine_particle
     n_outer = int(prm[P_SPINE_OUTER])
     n_inner = int(prm[P_SPINE_INNER])
     inv_n = 1.0 / (1 + n_outer * n_inner)        # pins per solve: the start and every sweep
-    _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True, inv_n)
+    _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, True, inv_n,
+                   P.sp_rest, root_pos, root_rot)
     root_pin = prm[P_ROOT_PIN] > 0.0
     ch_particle, ch_prev, sp_body, b_parent, sp_rest = P.ch_particle, P.ch_prev, P.sp_body, P.b_parent, P.sp_rest
     if root_pin:
@@ -955,9 +984,10 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                 if i >= 0:
                     w = min(max(goal_pos_w[P.goal_body[gi]], 0.0), 1.0)
                     if 0.0 < w < 1.0:
-                        set3(sp_pos, i, vlerp(v3(sp_pos, i), v3(goal_joint, gi), _share(w, inv_n)))
+                        set3(sp_pos, i, vlerp(v3(sp_pos, i), _weighted_target(sp_rest, root_pos, root_rot, i,
+                                                                              v3(goal_joint, gi), w), _share(w, inv_n)))
             _pin_delegated(dg_body, dg_spine_particle, goal_pos_w, goal_rot_w, dg_target, sp_pos, sp_inv, False,
-                           inv_n)
+                           inv_n, sp_rest, root_pos, root_rot)
             if root_pin:
                 _pin_root_children(ch_particle, ch_prev, sp_body, b_parent, sp_rest, root_pos, root_rot, sp_pos,
                                    sp_inv)
