@@ -52,6 +52,11 @@ def _timed(resp, name, log):
     setattr(resp, name, wrap)
 
 
+def _stat(f, xs) -> float:
+    """``f`` of ``xs``, 0 for none (``--library 0 --random 0`` times the humanoid alone)."""
+    return float(f(xs)) if len(xs) else 0.0
+
+
 def trial(creature, rng, nhits, stats, params=None):
     ch = Character(creature)
     if params is not None:
@@ -249,10 +254,10 @@ def main() -> None:
         decision_ms_median=round(1e3 * float(np.median(dec_per_hit)), 2),
         decision_ms_p99=round(1e3 * float(np.percentile(dec_per_hit, 99)), 2),
         sim1_slice_ms_max=round(1e3 * float(sim1.max()), 2) if sim1.size else 0.0,
-        tick_ms_median_during_response=round(1e3 * float(np.median(stats["tick"])), 2),
-        max_tick_ms_during_response=round(1e3 * float(np.max(stats["tick"])), 2),
-        success_rate=round(float(np.mean(results[1])), 3), train2_success_rate=round(float(np.mean(results[2])), 3),
-        train5_success_rate=round(float(np.mean(results[5])), 3), creatures=len(creatures),
+        tick_ms_median_during_response=round(1e3 * _stat(np.median, stats["tick"]), 2),
+        max_tick_ms_during_response=round(1e3 * _stat(np.max, stats["tick"]), 2),
+        success_rate=round(_stat(np.mean, results[1]), 3), train2_success_rate=round(_stat(np.mean, results[2]), 3),
+        train5_success_rate=round(_stat(np.mean, results[5]), 3), creatures=len(creatures),
         hits=int(len(results[1]) + 2 * len(results[2]) + 5 * len(results[5])),
         search_ms_by_library_frames=scaling, paper_mode_s=None, search_recall=round(float(np.mean(same)), 3),
         library_build_s=round(build_s, 2), library_load_s=round(load_s, 2),
@@ -260,10 +265,10 @@ def main() -> None:
         humanoid_decision_ms_p99=round(1e3 * float(np.percentile(hdec, 99)), 2),
         humanoid_max_tick_ms_during_response=round(1e3 * float(np.max(hstats["tick"])), 2),
         prepare_s_first=round(prepare_s[0], 3) if prepare_s else None,
-        handback_turn_median=round(float(np.median(stats["handback_turn"])), 3),
-        handback_turn_max=round(float(np.max(stats["handback_turn"])), 3),
-        anim_turn_median=round(float(np.median(stats["anim_turn"])), 3),
-        anim_turn_max=round(float(np.max(stats["anim_turn"])), 3),
+        handback_turn_median=round(_stat(np.median, stats.get("handback_turn", [])), 3),
+        handback_turn_max=round(_stat(np.max, stats.get("handback_turn", [])), 3),
+        anim_turn_median=round(_stat(np.median, stats.get("anim_turn", [])), 3),
+        anim_turn_max=round(_stat(np.max, stats.get("anim_turn", [])), 3),
     )
     print("failures:")
     for f in failures:
