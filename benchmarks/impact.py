@@ -2,7 +2,7 @@
 of random hits (one, two and five in series) on library and random creatures.
 
     .venv/bin/python benchmarks/impact.py [--library 6] [--skip 0] [--random 5] [--first-seed 0] [--hits 4]
-        [--seed 0] [--stand on|off|lookahead|live]
+        [--seed 0] [--stand on|off|lookahead|live] [--lookahead-substep S]
 
 A response succeeds when the output stays finite, the character is back on animation
 (``reacting`` False) within 2 s after the last hit, the hand-off ticks (to physics, back
@@ -18,6 +18,7 @@ line (keys as issue 13).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import glob
 import json
 import os
@@ -175,6 +176,9 @@ def main() -> None:
     ap.add_argument("--stand", choices=("on", "off", "lookahead", "live"), default="on",
                     help="the standing controller as ImpactParams has it (on), in none, in the lookahead "
                          "only, or in both (live)")
+    ap.add_argument("--lookahead-substep", type=float, default=None,
+                    help="Simulation 1's substep, s (ImpactParams.lookahead_substep; default 1/240): the "
+                         "lookahead is most of the decision's time")
     ap.add_argument("--creatures", nargs="*", default=None,
                     help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
@@ -184,6 +188,8 @@ def main() -> None:
         paths = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in args.creatures]
     params = {"on": None, "off": ImpactParams(stand=None),
               "lookahead": ImpactParams(stand_live=False), "live": ImpactParams(stand_live=True)}[args.stand]
+    if args.lookahead_substep is not None:
+        params = dataclasses.replace(params or ImpactParams(), lookahead_substep=args.lookahead_substep)
     seeds = range(args.first_seed, args.first_seed + args.random)
     creatures = [engine.load_creature(p) for p in paths] + [build_creature(random_creature_def(s)) for s in seeds]
     hum = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
