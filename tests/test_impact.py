@@ -391,3 +391,31 @@ def test_the_blend_back_does_not_take_a_body_into_the_ground():
     assert out[5, 2] == pytest.approx(-0.01)
     # without the floor the same offset puts the feet well under the ground
     assert np.min(pos[:, 2] - 2.0 * t * e) < -0.05
+
+
+def test_a_fall_goes_on_into_the_clips_that_follow_it():
+    """A knock-down re-enters a fall; the response queues what continues it by the clips'
+    own ``follows`` (lying, then getting up: ``engine.anim.chain``, animations/reactions),
+    then what played before. Measured: a 2.5 m/s push back on the humanoid's root finds
+    ``fall_back`` and queues lie_back, get_up_back, idle_breathe."""
+    ch = _standing("humanoid")
+    lib = library_for(ch.creature)
+    for d in ("back", "front", "left", "right"):
+        assert lib.followed_by[f"fall_{d}"].name == f"lie_{d}"
+        assert lib.followed_by[f"lie_{d}"].name == f"get_up_{d}"
+    queued = []
+    own = ch.queue
+
+    def record(animation, *args, **kwargs):
+        queued.append(animation.name)
+        return own(animation, *args, **kwargs)
+
+    ch.queue = record
+    mass = _models(ch.creature, ImpactParams())[1].total_mass
+    ch.hit(0, np.array([-2.5 * mass, 0.0, 0.0]))
+    for _ in range(int(1.5 / DT)):
+        ch.tick(DT)
+    found = ch.response.clip.name
+    assert found.startswith("fall_"), found
+    side = found[len("fall_"):]
+    assert queued == [f"lie_{side}", f"get_up_{side}", "idle_breathe"], queued
