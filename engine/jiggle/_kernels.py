@@ -171,10 +171,7 @@ def jiggle_kernel(
             state_active[i] = False
             state_twist[i, 0] = 0.0
             state_twist[i, 1] = 0.0
-            state_contact[i, 0] = 1.0
-            state_contact[i, 1] = 0.0
-            state_contact[i, 2] = 0.0
-            state_contact[i, 3] = 0.0
+            _clear_contact(state_contact, i)
             for k in range(4):
                 final_rot[k] = rigid_rot[k]
         else:
@@ -204,10 +201,7 @@ def jiggle_kernel(
                 # turned back in one frame as a clip ended).
                 state_twist[i, 0] = _handoff_twist(world_rot[i], rigid_rot, jig_lever[i], lever_rigid)
                 state_twist[i, 1] = 0.0
-                state_contact[i, 0] = 1.0
-                state_contact[i, 1] = 0.0
-                state_contact[i, 2] = 0.0
-                state_contact[i, 3] = 0.0
+                _clear_contact(state_contact, i)
                 state_active[i] = True
             w = jig_omega[i]
             z = jig_zeta[i]
@@ -411,12 +405,7 @@ def _ground_contact(rot, joint, joint_offset, extent, ground, arms, dq):
     k_n = kx * ground[0] + ky * ground[1] + kz * ground[2]
     angle = 0.0
     for c in range(8):
-        ax, ay, az = arms[c, 0], arms[c, 1], arms[c, 2]
-        # height under a turn t: base + A cos t + B sin t
-        along = ax * kx + ay * ky + az * kz
-        base = hj + along * k_n
-        A = ax * ground[0] + ay * ground[1] + az * ground[2] - along * k_n
-        B = (ky * az - kz * ay) * ground[0] + (kz * ax - kx * az) * ground[1] + (kx * ay - ky * ax) * ground[2]
+        base, A, B = _corner_wave(arms, c, hj, kx, ky, kz, k_n, ground)
         if base + A >= 0.0:
             continue      # above the plane
         R = np.sqrt(A * A + B * B)
@@ -474,14 +463,31 @@ def _lowest_corner(arms, hj, kx, ky, kz, k_n, ground, t):
     s = np.sin(t)
     low = 1e300
     for i in range(arms.shape[0]):
-        ax, ay, az = arms[i, 0], arms[i, 1], arms[i, 2]
-        along = ax * kx + ay * ky + az * kz
-        A = ax * ground[0] + ay * ground[1] + az * ground[2] - along * k_n
-        B = (ky * az - kz * ay) * ground[0] + (kz * ax - kx * az) * ground[1] + (kx * ay - ky * ax) * ground[2]
-        h = hj + along * k_n + A * c + B * s
+        base, A, B = _corner_wave(arms, i, hj, kx, ky, kz, k_n, ground)
+        h = base + A * c + B * s
         if h < low:
             low = h
     return low
+
+
+@njit(cache=True, inline="always")
+def _corner_wave(arms, i, hj, kx, ky, kz, k_n, ground):
+    """(base, A, B): the height of corner ``arms[i]`` (from a joint at height ``hj``)
+    after a turn t about the horizontal unit axis k is base + A cos t + B sin t."""
+    ax, ay, az = arms[i, 0], arms[i, 1], arms[i, 2]
+    along = ax * kx + ay * ky + az * kz
+    A = ax * ground[0] + ay * ground[1] + az * ground[2] - along * k_n
+    B = (ky * az - kz * ay) * ground[0] + (kz * ax - kx * az) * ground[1] + (kx * ay - ky * ax) * ground[2]
+    return hj + along * k_n, A, B
+
+
+@njit(cache=True, inline="always")
+def _clear_contact(state_contact, i):
+    """No ground hold on body ``i`` (the identity turn)."""
+    state_contact[i, 0] = 1.0
+    state_contact[i, 1] = 0.0
+    state_contact[i, 2] = 0.0
+    state_contact[i, 3] = 0.0
 
 
 @njit(cache=True, inline="always")

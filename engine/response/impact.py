@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from engine.anim.chain import MAX_CHAIN
 from engine.errors import MenagerieError
 from engine.model.caps import TAIL
 from engine.physics import (
@@ -652,13 +653,12 @@ class ImpactResponse:
         name = self.clip.name
         # a fall goes on into the clips that continue it (``follows``: lying, then getting
         # up, animations/reactions), then what played before
-        last = self.clip
         nxt = self.library.followed_by.get(name)
-        for _ in range(8):
+        continued = nxt is not None
+        for _ in range(MAX_CHAIN):
             if nxt is None:
                 break
             ch.queue(nxt, fade=0.2, fade_out=0.2, loop=False)
-            last = nxt
             nxt = self.library.followed_by.get(nxt.name)
         self._settle_at = None
         if name.startswith("stagger_"):
@@ -671,7 +671,7 @@ class ImpactResponse:
             c, sn = math.cos(self._place_yaw), math.sin(self._place_yaw)
             self._settle_d = np.array([c * dc[0] - sn * dc[1], sn * dc[0] + c * dc[1], 0.0])
             self._settle_at = self._handoff + (self.clip.length - self.clip_time) / e.speed - 1.5 * dt
-        elif (last is not self.clip or not self.clip.loop) and self._resume is not None \
+        elif (continued or not self.clip.loop) and self._resume is not None \
                 and self._resume is not self.clip:
             # after a one-shot reaction (or the chain that continues it: a lying entered in the
             # middle goes on into getting up): what played before
