@@ -209,6 +209,8 @@ class Character:
         # -- impact response (engine.response.impact) ------------------------------------
         self.response = None                    #: the ImpactResponse, made by the first hit
         # -- end impact response ---------------------------------------------------------
+        #: Session recorders capturing after every tick (``record``).
+        self.recorders: list = []
 
     # -- views into the stack ----------------------------------------------------------
 
@@ -394,6 +396,8 @@ class Character:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
         if self.response is not None and self.response.phase != "idle":
             self.response.tick(dt)                      # 9. impact response (engine.response)
+        if self.recorders:
+            self._capture(dt)                           # 10. session recording (record)
         self._frame += 1
         if compiling.line_open:                         # the first run's compiling line ends here
             compiling.end_line()
@@ -428,6 +432,38 @@ class Character:
         """Whether an impact response is running (``response.phase``, ``response.clip``)."""
         return self.response is not None and self.response.phase != "idle"
     # -- end impact response -------------------------------------------------------------
+
+    # -- session recording -------------------------------------------------------------
+
+    def record(self, fps: float = 30.0):
+        """Record what this character shows from now on (clips, gait, IK, jiggles, impact
+        responses: the world pose after each tick, alone or in a ``Crowd``), for export::
+
+            rec = char.record()             # the pose now is its first frame
+            ...                             # the game ticks
+            rec.stop()
+            rec.save("session.glb")         # or .gltf, or .bvh
+
+        Returns the ``engine.io.gltf_export.SessionRecorder``; its ``recording()`` is the
+        motion resampled to ``fps`` keys. Several recorders may run at once."""
+        from engine.io.gltf_export import SessionRecorder
+
+        rec = SessionRecorder(self, fps=fps)
+        rec.capture()
+        rec.attached = True
+        self.recorders.append(rec)
+        _RECORDING.add(self)
+        return rec
+
+    def _capture(self, dt: float) -> None:
+        for rec in self.recorders:
+            rec.capture(dt)
+
+    def _stop_recording(self, rec) -> None:
+        if rec in self.recorders:
+            self.recorders.remove(rec)
+        if not self.recorders:
+            _RECORDING.discard(self)
 
     # -- outputs -----------------------------------------------------------------------
 
@@ -735,6 +771,8 @@ _INV_BIND: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: Characters whose impact response runs (added by ``hit``, dropped when it ends), so a
 #: crowd ticks responses without a loop over every member.
 _REACTING: weakref.WeakSet = weakref.WeakSet()
+#: Characters with a session recorder running (``Character.record``), for the same reason.
+_RECORDING: weakref.WeakSet = weakref.WeakSet()
 
 
 def quat_to_matrix_batch(q: np.ndarray) -> np.ndarray:
@@ -859,6 +897,10 @@ class _Group:
         if _REACTING:
             for m in [m for m in _REACTING if m._stack is s]:
                 m.response.tick(dt)
+        # 10. session recording: only the members being recorded
+        if _RECORDING:
+            for m in [m for m in _RECORDING if m._stack is s]:
+                m._capture(dt)
 
     def _player(self, dt: float) -> None:
         s = self.stack

@@ -367,6 +367,86 @@ def test_a_live_session_records_and_exports(tmp_path):
         rec.capture(0.0)
 
 
+def test_char_record_captures_every_tick_alone_and_in_a_crowd(tmp_path):
+    """``Character.record()`` captures after each tick by itself, for a character alone
+    and for one ticked by a ``Crowd``, a hit's physical reaction included; ``stop`` ends
+    it; ``save`` writes .glb (validator: 0 errors), .gltf and .bvh and keeps what exists."""
+    from engine.io.bvh import load_bvh
+    from engine.io.gltf import gltf_motion
+
+    c = _creature("humanoid")
+    alone, member, other = engine.Character(c), engine.Character(c), engine.Character(c, position=(2, 0, 0))
+    crowd = engine.Crowd([member, other])
+    for ch in (alone, member):
+        ch.play(_anim("wave"))
+    alone.tick(1 / 60)
+    crowd.tick(1 / 60)
+    recs = [alone.record(fps=60), member.record(fps=60)]
+    seen = [[alone.world_positions.copy()], [member.world_positions.copy()]]
+    for k in range(40):
+        if k == 10:
+            alone.hit("spine2", (-40.0, 0.0, 0.0))
+            member.hit("spine2", (0.0, 30.0, 0.0))
+        alone.tick(1 / 60)
+        crowd.tick(1 / 60)
+        seen[0].append(alone.world_positions.copy())
+        seen[1].append(member.world_positions.copy())
+    assert alone.response.hits == 1 and member.response.hits == 1   # reactions ran in the recorded ticks
+    for rec, want in zip(recs, seen, strict=True):
+        r = rec.recording()
+        assert r.body_pos.shape == (41, c.nbody, 3)
+        np.testing.assert_allclose(r.body_pos, np.array(want), atol=1e-9)
+    assert not other.recorders
+    recs[1].stop()
+    assert not member.recorders and not recs[1].attached
+    crowd.tick(1 / 60)
+    assert recs[1].recording().body_pos.shape[0] == 41          # nothing after stop
+    recs[0].stop()
+    glb = recs[0].save(tmp_path / "session.glb")
+    m = gltf_motion(glb, rest="file")
+    np.testing.assert_allclose(m.body_pos, recs[0].recording().body_pos, atol=1e-4)
+    if clients.validator_available():
+        assert clients.validate(glb)["issues"]["numErrors"] == 0
+    assert recs[0].save(tmp_path / "session.gltf").endswith(".gltf")
+    bvh = load_bvh(recs[0].save(tmp_path / "session.bvh"))
+    assert bvh.nframe == 41 and bvh.njoint == c.nbody
+    with pytest.raises(FileExistsError, match="overwrite"):
+        recs[0].save(tmp_path / "session.glb")
+    with pytest.raises(engine.errors.DataError, match=".glb, .gltf or .bvh"):
+        recs[0].save(tmp_path / "session.fbx")
+    with pytest.raises(ValueError, match="fps"):
+        alone.record(fps=0)
+    fresh = engine.Character(c).record()
+    with pytest.raises(ValueError, match="tick the character"):
+        fresh.recording()
+
+
+def test_char_record_of_a_rig_exports_its_own_mesh(tmp_path):
+    """A creature file made from a glTF rig records and saves with the rig's own mesh."""
+    import json
+    import struct
+
+    from engine.cli import main
+    from engine.io.gltf import gltf_motion, rig_mesh_of
+
+    yml = tmp_path / "fig.yaml"
+    assert main(["creatures", "from-gltf", os.path.join(RIGS, "riggedfigure_khronos.glb"), "--out", str(yml)]) == 0
+    c = engine.load_creature(yml)
+    ch = engine.Character(c)
+    ch.play(_anim("wave"))
+    rec = ch.record()
+    for _ in range(20):
+        ch.tick(1 / 30)
+    path = rec.stop().save(tmp_path / "fig.glb")
+    own = rig_mesh_of(c)
+    with open(path, "rb") as f:
+        blob = f.read()
+    doc = json.loads(blob[20:20 + struct.unpack("<I", blob[12:16])[0]])
+    written = sum(doc["accessors"][p["attributes"]["POSITION"]]["count"] for m in doc["meshes"] for p in m["primitives"])
+    assert written == own.positions.shape[0]            # the rig's vertices, not a box per body
+    assert gltf_motion(path, rest="file").body_pos.shape[0] == rec.recording().body_pos.shape[0]
+
+
 def test_a_creature_file_made_from_a_rig_bakes_with_the_rigs_mesh(tmp_path):
     """``creatures from-gltf --out X.yaml`` writes where the rig is (``source:``); the file
     reads back with it, saves with it, and a bake of the YAML carries the rig's own mesh.

@@ -109,10 +109,11 @@ def record_clip(creature, animation, variant=None, fps: float = 30.0, seconds: f
 
 
 class SessionRecorder:
-    """Records a live ``Character`` (a game session, the viewer) for export: call
-    ``capture()`` after each ``tick``; ``recording(name)`` gives a ``Recording`` resampled
-    to ``fps`` (linear positions, normalized-lerp rotations between captured frames), so
-    ticks of any length export as regular keys.
+    """Records a live ``Character`` (a game session, the viewer) for export.
+    ``recording(name)`` gives a ``Recording`` resampled to ``fps`` (linear positions,
+    normalized-lerp rotations between captured frames), so ticks of any length export as
+    regular keys. ``Character.record()`` makes one that captures after every tick by
+    itself (``stop()`` ends that); one made directly captures when told:
 
         rec = SessionRecorder(char)
         for dt in frame_times: char.tick(dt); rec.capture(dt)
@@ -120,8 +121,12 @@ class SessionRecorder:
     """
 
     def __init__(self, char, fps: float = 30.0):
+        if not (isinstance(fps, (int, float)) and np.isfinite(fps) and 0.0 < fps <= 1000.0):
+            raise ValueError(f"record: fps must be a number of frames per second in (0, 1000], got {fps!r}")
         self.char = char
         self.fps = float(fps)
+        #: Whether the character captures into this recorder after each tick (``Character.record``).
+        self.attached = False
         self.t = 0.0
         self._times: list[float] = []
         self._pos: list[np.ndarray] = []
@@ -137,9 +142,49 @@ class SessionRecorder:
         self._pos.append(np.array(self.char.world_positions))
         self._rot.append(np.array(self.char.world_rotations))
 
+    @property
+    def seconds(self) -> float:
+        """Time from the first captured frame to the last."""
+        return self.t
+
+    def stop(self) -> SessionRecorder:
+        """Capture no more frames (what was captured stays); returns the recorder."""
+        if self.attached:
+            self.char._stop_recording(self)
+            self.attached = False
+        return self
+
+    def save(self, path: str | os.PathLike, *, name: str = "session", overwrite: bool = False,
+             mesh: str = "auto") -> str:
+        """Write the recording: ``.glb`` or ``.gltf`` (a box per body, or, with ``mesh``
+        ``"auto"``, the rig's own mesh for a creature made from a glTF rig), or ``.bvh``
+        (the creature's hierarchy). An existing file is kept unless ``overwrite``."""
+        path = os.fspath(path)
+        suffix = os.path.splitext(path)[1].lower()
+        if suffix not in (".glb", ".gltf", ".bvh"):
+            raise DataError("a session is saved as .glb, .gltf or .bvh", path=path)
+        if mesh not in ("auto", "boxes"):
+            raise DataError(f"mesh must be 'auto' or 'boxes', got {mesh!r}", path=path, field="mesh")
+        if os.path.exists(path) and not overwrite:
+            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+        rec = self.recording(name)
+        creature = self.char.creature
+        if suffix == ".bvh":
+            from engine.io.bake import recording_to_bvh
+            from engine.io.bvh import save_bvh
+
+            save_bvh(recording_to_bvh(creature, rec), path, overwrite=overwrite)
+            return path
+        source_mesh = None
+        if mesh == "auto" and getattr(creature, "source", None):
+            from engine.io.gltf import rig_mesh_of
+
+            source_mesh = rig_mesh_of(creature)
+        return save_gltf(creature, [rec], path, overwrite=overwrite, mesh=source_mesh)
+
     def recording(self, name: str = "session") -> Recording:
         if len(self._times) < 2:
-            raise ValueError("a recording needs at least two captured frames")
+            raise ValueError("a recording needs at least two captured frames (tick the character after record())")
         times = np.array(self._times)
         pos, rot = np.array(self._pos), _continuous(np.array(self._rot))
         out_t = np.arange(int(np.floor(times[-1] * self.fps + 1e-9)) + 1) / self.fps
