@@ -59,14 +59,14 @@ def _free_path(path: str) -> str:
 
 def _load_creatures(items) -> list[Creature]:
     """Creatures from Creature objects and/or creature file paths."""
-    import engine
-
     out = []
     for item in items:
         if isinstance(item, Creature):
             out.append(item)
         elif isinstance(item, (str, os.PathLike)):
-            out.append(engine.load_creature(item))
+            from engine.io.sources import creature_from_file
+
+            out.append(creature_from_file(os.fspath(item)))   # creature files, .bvh, .glb/.gltf
         else:
             raise sc.SceneError(f"expected a Creature or a creature file path, got "
                                 f"{type(item).__name__}", kind="creature")

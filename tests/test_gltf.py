@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import struct
+import warnings
 
 import numpy as np
 import pytest
@@ -384,6 +385,57 @@ def test_capture_arms_hang_and_arms_already_down_stay():
     _, _, _, _, turned = relax_arms(h.body_parent, caps, [b.joint for b in cdef_h.bodies],
                                     [b.pos for b in cdef_h.bodies], [b.rot for b in cdef_h.bodies])
     assert turned == []
+
+
+@pytest.mark.parametrize("name", sorted(n for n in os.listdir(MOCAP) if n.endswith(".bvh")))
+def test_capture_feet_stand_under_the_hips(name):
+    """A capture whose OFFSET pose splays the legs (CMU's thighs lean 20 degrees out) stands
+    with its feet under its hips in the relaxed rest: each leg turned about the forward axis
+    at its hip, its length and forward lean kept, the foot's sole as in the file, the
+    lowest box on the ground. A capture standing straight already is left as it is."""
+    from engine.io.bvh_creature import _box_min_z, creature_def_from_bvh
+    from engine.model.rest_pose import LEG_MIN_SPLAY, LEG_SPLAY
+
+    path = os.path.join(MOCAP, name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        file_def = creature_def_from_bvh(path, rest="file")
+        relaxed = creature_def_from_bvh(path)
+    b0 = {b.name: b for b in file_def.bodies}
+    b1 = {b.name: b for b in relaxed.bodies}
+    feet = [b.name for b in relaxed.bodies if "foot" in b.caps and not (b.parent and "foot" in b1[b.parent].caps)]
+    assert len(feet) == 2
+    for foot in feet:
+        hip = b1[b1[foot].parent].parent                 # the thigh's joint: foot <- shin <- thigh
+        d0 = np.subtract(b0[foot].joint, b0[hip].joint)
+        d1 = np.subtract(b1[foot].joint, b1[hip].joint)
+        side = np.sign(b0[hip].joint[1] - file_def.bodies[0].joint[1])
+        lean0 = np.arctan2(side * d0[1], -d0[2])
+        lean1 = np.arctan2(side * d1[1], -d1[2])
+        assert np.linalg.norm(d1) == pytest.approx(np.linalg.norm(d0), rel=1e-9)     # the leg keeps its length
+        assert d1[0] == pytest.approx(d0[0], abs=1e-9)                               # ... and its forward lean
+        if lean0 > LEG_MIN_SPLAY:
+            assert lean1 < LEG_SPLAY + np.radians(2.0), (foot, np.degrees(lean0), np.degrees(lean1))
+            assert abs(abs(np.dot(b1[foot].rot, b0[foot].rot)) - 1) < 1e-9           # the sole lies as before
+        else:
+            np.testing.assert_allclose(b1[foot].joint, b0[foot].joint, atol=1e-12)
+    centre = np.array([b.pos for b in relaxed.bodies])
+    rot = np.array([b.rot for b in relaxed.bodies])
+    half = np.array([b.extents for b in relaxed.bodies])
+    assert _box_min_z(centre, rot, half) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_many_legged_and_standing_rigs_keep_their_legs():
+    """The spider's eight splayed legs and the mannequin's straight ones stay as the file
+    has them (only a biped's splay is a capture's pose, not its build)."""
+    for rig, feet in (("quaternius_spider.glb", 8), ("godot_mannequiny.glb", 2)):
+        a, b = import_gltf(os.path.join(RIGS, rig), rest="file"), import_gltf(os.path.join(RIGS, rig))
+        fa = {x.name: x for x in a.cdef.bodies}
+        got = [x for x in b.cdef.bodies if "foot" in x.caps and not (x.parent and "foot" in fa[x.parent].caps)]
+        assert len(got) == feet
+        for x in got:
+            np.testing.assert_allclose(x.joint, fa[x.name].joint, atol=1e-12)
+        assert not any("leg turned" in r for r in b.relaxed)
 
 
 @pytest.mark.parametrize("name", ["fox_khronos.glb", "quaternius_bee.glb"])

@@ -423,11 +423,18 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
         for j in range(len(reasons)):
             reasons[j] += f"; rest from capture frame {rest}" if j == 0 else ""
     elif rest == "relaxed":
-        from engine.model.rest_pose import relax_arms
+        from engine.model.rest_pose import relax_arms, relax_legs
 
-        joint_pos, centre, rot, _, turned = relax_arms(clip.joint_parent, caps, joint_pos, centre, rot)
+        joint_pos, centre, rot, delta, turned = relax_arms(clip.joint_parent, caps, joint_pos, centre, rot)
         for g, s, ang in turned:
             reasons[g] += f"; arm swung down at {clip.joint_names[s]} ({ang:.0f} deg from hanging)"
+        joint_pos, centre, rot, _, legs = relax_legs(clip.joint_parent, caps, joint_pos, centre, rot, delta)
+        for f, s, ang in legs:
+            reasons[f] += f"; leg turned in under the hip at {clip.joint_names[s]} ({ang:.0f} deg out before)"
+        if turned or legs:   # straighter legs reach lower, a hanging arm's box may: back on the ground
+            dz = np.array([0.0, 0.0, -_box_min_z(centre, rot, half)])
+            joint_pos = joint_pos + dz
+            centre = centre + dz
     elif rest != "file":
         raise DataError(f"rest must be 'relaxed', 'file' or a frame number, got {rest!r}", path=clip.path,
                         field="rest")

@@ -15,10 +15,28 @@ arm down about its shoulder:
   that points it down and ``SPLAY`` outward (hands clear of the hips). An arm that would
   then reach within 2 % of the height of the ground is left as it is.
 
+``relax_legs`` puts a biped's feet under its hips: a capture's skeleton in its OFFSET pose
+often stands with its legs splayed (the CMU skeletons' thighs lean 20 degrees out: feet
+0.8 m apart under a 1.5 m figure), and standing and stepping keep the feet where the rest
+has them.
+
+* Only a creature with exactly **two feet** (bodies with the ``foot`` capability), one on
+  each side of the sagittal plane, below their hips: many-legged creatures splay their legs
+  by nature (a spider, a frog) and are left as they are.
+* A leg is the chain from where it leaves the spine to its foot; its **hip** is the joint
+  ``HIP_FRACTION`` of the chain's length from the foot (a pelvis bone between the spine and
+  the thigh, as CMU's ``LHipJoint``, stays where it is).
+* A leg leaning out more than ``LEG_MIN_SPLAY`` from straight down, seen from the front, is
+  turned about the forward axis at its hip until it leans ``LEG_SPLAY`` out; its forward or
+  backward lean and the knee's bend are kept. The foot is turned back about the ankle, so
+  the sole lies as before.
+
+The importer puts the result back on the ground (legs hanging straighter reach lower).
+
 The result is the creature's rest: positions, rotations and joints of the bodies below each
-shoulder change, their shapes do not (a rigid turn of each arm). ``rest_delta`` gives the
-world rotation applied to each body (identity elsewhere), so an exporter can return to the
-file's own bind pose.
+shoulder and hip change, their shapes do not (a rigid turn of each limb). ``rest_delta``
+gives the world rotation applied to each body (identity elsewhere), so an exporter can
+return to the file's own bind pose.
 """
 
 from __future__ import annotations
@@ -33,6 +51,12 @@ SHOULDER_FRACTION = 0.78
 RELAX_MIN_ANGLE = np.radians(35.0)
 #: The hanging arm's outward tilt (radians) from straight down.
 SPLAY = np.radians(8.0)
+#: Where a leg turns: the joint this fraction of its chain length from the foot.
+HIP_FRACTION = 0.85
+#: Legs leaning out less than this (radians, seen from the front) are left as they are.
+LEG_MIN_SPLAY = np.radians(10.0)
+#: The relaxed leg's outward lean (radians) from straight down, seen from the front.
+LEG_SPLAY = np.radians(3.0)
 
 
 def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -116,4 +140,75 @@ def relax_arms(parent, caps, joint, pos, rot):
             stack.extend(children[b])
         turned.append((g, s, float(np.degrees(angle))))
     rot /= np.linalg.norm(rot, axis=1, keepdims=True)
+    return joint, pos, rot, delta, turned
+
+
+def _turn_subtree(children, root: int, pivot: np.ndarray, q: np.ndarray, joint, pos, rot, delta) -> None:
+    stack = [root]
+    while stack:
+        b = stack.pop()
+        joint[b] = pivot + quat_rotate(q, joint[b] - pivot)
+        pos[b] = pivot + quat_rotate(q, pos[b] - pivot)
+        rot[b] = quat_mul(q, rot[b])
+        delta[b] = quat_mul(q, delta[b])
+        stack.extend(children[b])
+
+
+def relax_legs(parent, caps, joint, pos, rot, delta=None):
+    """Put a biped's splayed feet under its hips (see the module docstring). Arguments as
+    ``relax_arms``, plus ``delta`` (n, 4): the rest delta so far (``relax_arms``'), composed.
+
+    Returns:
+        (joint, pos, rot, rest_delta, turned): as ``relax_arms``; ``turned`` lists (foot
+        index, hip index, lean out in degrees before).
+    """
+    parent = np.asarray(parent)
+    n = len(parent)
+    joint = np.array(joint, float)
+    pos = np.array(pos, float)
+    rot = np.array(rot, float)
+    delta = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)) if delta is None else np.array(delta, float)
+    children = [[] for _ in range(n)]
+    for j in range(1, n):
+        if parent[j] >= 0:
+            children[parent[j]].append(j)
+    feet = [f for f in range(n) if "foot" in caps[f] and "spine" not in caps[f]
+            and not (parent[f] >= 0 and "foot" in caps[parent[f]])]
+    if len(feet) != 2:
+        return joint, pos, rot, delta, []
+    legs = []
+    for f in feet:
+        path = [f]
+        while parent[path[-1]] >= 0 and "spine" not in caps[parent[path[-1]]]:
+            path.append(int(parent[path[-1]]))
+        path.reverse()  # chain start ... foot
+        if len(path) < 2:
+            return joint, pos, rot, delta, []
+        along = np.zeros(len(path))
+        for i in range(len(path) - 2, -1, -1):
+            along[i] = along[i + 1] + float(np.linalg.norm(joint[path[i + 1]] - joint[path[i]]))
+        if along[0] <= 0:
+            return joint, pos, rot, delta, []
+        hip = path[int(np.argmin(np.abs(along[:-1] / along[0] - HIP_FRACTION)))]
+        d = joint[f] - joint[hip]
+        side = float(np.sign(joint[hip, 1] - joint[0, 1]))
+        if d[2] >= 0.0 or side == 0.0:
+            return joint, pos, rot, delta, []       # a foot not below its hip, or a hip on the midline
+        legs.append((f, hip, d, side))
+    if legs[0][3] == legs[1][3]:
+        return joint, pos, rot, delta, []           # both on one side: not a pair
+    turned = []
+    for f, hip, d, side in legs:
+        lean = float(np.arctan2(side * d[1], -d[2]))   # outward, seen from the front
+        if lean <= LEG_MIN_SPLAY:
+            continue
+        a = -side * (lean - LEG_SPLAY)                 # about +X: y cos a - z sin a
+        q = np.array([np.cos(a / 2), np.sin(a / 2), 0.0, 0.0])
+        pivot = joint[hip].copy()
+        _turn_subtree(children, hip, pivot, q, joint, pos, rot, delta)
+        # the foot turned back about its ankle: its sole lies as it did
+        _turn_subtree(children, f, joint[f].copy(), q * np.array([1.0, -1.0, -1.0, -1.0]), joint, pos, rot, delta)
+        turned.append((f, hip, float(np.degrees(lean))))
+    rot /= np.linalg.norm(rot, axis=1, keepdims=True)
+    delta /= np.linalg.norm(delta, axis=1, keepdims=True)
     return joint, pos, rot, delta, turned
