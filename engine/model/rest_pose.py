@@ -56,7 +56,7 @@ HIP_FRACTION = 0.85
 #: Legs leaning out less than this (radians, seen from the front) are left as they are.
 LEG_MIN_SPLAY = np.radians(10.0)
 #: The relaxed leg's outward lean (radians) from straight down, seen from the front.
-LEG_SPLAY = np.radians(3.0)
+LEG_SPLAY = np.radians(5.0)
 
 
 def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
