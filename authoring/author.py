@@ -823,7 +823,8 @@ class AuthorWindow:
         if pos is not None:
             flags = {}
             for flag, ok in (("ground", pos.mode == "rest"), ("sagittal", pos.mode == "rest"),
-                             ("directional_only", pos.mode == "secondary")):
+                             ("directional_only", pos.mode == "secondary" and not pos.contact),
+                             ("contact", pos.mode == "secondary" and not pos.directional_only)):
                 if ok:
                     c, v = imgui.checkbox(flag, getattr(pos, flag))
                     if c:

@@ -279,15 +279,17 @@ def test_ground_relative_channel_touches_the_ground_at_one():
 
 def test_eat_fruit_cross_fades_from_the_fruit_to_the_mouth():
     """Two channels of one blend group with crossing weights (section 3.2.3's example): the
-    hand's goal is at the fruit, then halfway between fruit and mouth, then at the mouth."""
+    hand's goal is at the fruit, then halfway between fruit and mouth, then at the mouth
+    (where the hand's box touches the mouth's: the mouth channel's ``contact``)."""
     from engine.channels import PositionSpec, Slot, build_slots, specialize
 
     c = creature_from_text(MINI)
     a = load_animation(os.path.join(ROOT, "animations", "eat_fruit.yaml"))
     fruit = np.array([0.7, 0.6, 1.1])
     hand, mouth = c.body("hand_l"), c.body("head")
-    slot = build_slots(c, [Slot(hand, PositionSpec("secondary", scale="limb_length"), None, target=0)])
-    near_mouth, _ = specialize(slot, [[0.95, 0, 0]], [[1.0, 0, 0, 0]], [c.body_rest_pos[mouth]])
+    slot = build_slots(c, [Slot(hand, PositionSpec("secondary", scale="limb_length", contact=True), None, target=0,
+                                target_body=mouth)])
+    near_mouth, _ = specialize(slot, [[1.0, 0, 0]], [[1.0, 0, 0, 0]], [c.body_rest_pos[mouth]])
     g = evaluate_goals(a, c, 1.0, targets={"fruit": fruit})
     np.testing.assert_allclose(g.goal_pos[hand], fruit, atol=1e-12)
     g = evaluate_goals(a, c, 1.5, targets={"fruit": fruit})   # weights 0.5 / 0.5

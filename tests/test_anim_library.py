@@ -102,14 +102,23 @@ def test_mode_promises_hold_on_every_creature(animations, creatures):
                     if c.body_rest_pos[body, 2] - h > 1e-6:  # bodies already on the ground stay put
                         assert ps[i, 2] == pytest.approx(h, abs=1e-9 * max(1.0, h)), (a.name, c.name)
                         checked["ground"] += 1
-            # secondary-relative x = 1 reaches the target (not with SecondaryDirectionalOnly)
+            # secondary-relative x = 1 reaches the target (not with SecondaryDirectionalOnly);
+            # with contact it stops on the way there, the two boxes' half-widths short of it
             sec = (s.slot_pos_mode == K.POS_SECONDARY) & ((s.slot_pos_flags & K.FLAG_DIRECTIONAL) == 0)
             if np.any(sec):
                 q = np.zeros((n, 3))
                 q[:, 0] = 1.0
                 ps, _ = specialize(s, q, ident, table)
-                np.testing.assert_allclose(ps[sec], table[s.slot_target[sec]],
-                                           atol=1e-9 * max(1.0, float(np.max(c.size))))
+                tol = 1e-9 * max(1.0, float(np.max(c.size)))
+                contact = (s.slot_pos_flags & K.FLAG_CONTACT) != 0
+                np.testing.assert_allclose(ps[sec & ~contact], table[s.slot_target[sec & ~contact]], atol=tol)
+                for i in np.flatnonzero(sec & contact):
+                    rest, t = c.body_rest_pos[s.slot_body[i]], table[s.slot_target[i]]
+                    d = float(np.linalg.norm(t - rest))
+                    u = (t - rest) / d
+                    gap = float(np.abs(s.slot_contact[i] @ u).sum())
+                    np.testing.assert_allclose(ps[i], rest + u * max(d - gap, K.CONTACT_KEEP * d), atol=tol)
+                    checked["contact"] = checked.get("contact", 0) + 1
                 checked["secondary"] += int(np.sum(sec))
     assert all(v > 50 for v in checked.values()), checked
 

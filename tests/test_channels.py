@@ -272,6 +272,52 @@ def test_secondary_directional_only_keeps_the_size(mini):
         np.testing.assert_allclose(ps[0] - mini.body_rest_pos[b], 0.5 * reach * d / np.linalg.norm(d), atol=1e-12)
 
 
+def _support(c, body, u):
+    """Half-width of a body's rest box along the unit vector u."""
+    from engine.mathx.quat import quat_to_matrix
+
+    rot = quat_to_matrix(np.ascontiguousarray(c.body_rest_rot[body]))
+    return float(np.abs(rot.T @ u) @ c.body_extent[body])
+
+
+def test_secondary_contact_stops_where_the_boxes_touch(mini):
+    """``contact``: x = 1 puts the body where its rest box touches its target body's along
+    the approach direction (not where their origins meet); x = 0 is still the rest; G inverts
+    S; a target nearer than the two half-widths keeps a quarter of the distance; an external
+    target is a point."""
+    from engine.channels._kernels import CONTACT_KEEP
+
+    b, head = mini.body("hand_r"), mini.body("head")
+    spec = PositionSpec("secondary", contact=True, scale="limb_length")
+    slots = build_slots(mini, [Slot(b, spec, None, target=0, target_body=head)])
+    rest = mini.body_rest_pos[b]
+    for target in (mini.body_rest_pos[head], [0.6, -0.3, 1.4], [0.0, 0.9, 0.2]):
+        t = np.asarray(target, float)
+        d = np.linalg.norm(t - rest)
+        u = (t - rest) / d
+        gap = _support(mini, b, u) + _support(mini, head, u)
+        ps, _ = specialize(slots, [[1.0, 0, 0]], [[1.0, 0, 0, 0]], [t])
+        want = rest + u * max(d - gap, CONTACT_KEEP * d)
+        np.testing.assert_allclose(ps[0], want, atol=1e-12)
+        if d - gap > CONTACT_KEEP * d:     # the boxes touch: centres one support apart along u
+            assert np.dot(t - ps[0], u) == pytest.approx(gap, abs=1e-12)
+        ps0, _ = specialize(slots, [[0.0, 0, 0]], [[1.0, 0, 0, 0]], [t])
+        np.testing.assert_allclose(ps0[0], rest, atol=1e-12)
+        q = np.array([[0.7, 0.2, -0.1]])
+        back, _ = generalize(slots, *specialize(slots, q, [[1.0, 0, 0, 0]], [t]), [t])
+        np.testing.assert_allclose(back, q, atol=1e-9)
+    # an external target: only the hand's own half-width
+    ext = build_slots(mini, [Slot(b, spec, None, target=0)])
+    t = np.array([0.8, -0.4, 1.0])
+    u = (t - rest) / np.linalg.norm(t - rest)
+    ps, _ = specialize(ext, [[1.0, 0, 0]], [[1.0, 0, 0, 0]], [t])
+    assert np.dot(t - ps[0], u) == pytest.approx(_support(mini, b, u), abs=1e-12)
+    with pytest.raises(DataError, match="contact"):
+        PositionSpec("rest", contact=True)
+    with pytest.raises(DataError, match="contact"):
+        PositionSpec("secondary", contact=True, directional_only=True)
+
+
 def test_scale_modes(mini):
     b = mini.body("hand_l")
     ps, _ = specialize(one(mini, b, PositionSpec("rest", scale="creature_size")), [[0.1, 0.1, 0.1]], [[1.0, 0, 0, 0]])

@@ -392,3 +392,26 @@ def test_the_report_opens_in_a_real_browser_with_its_matrix_and_thumbnails(tmp_p
     shown = len({(c["creature"], c["animation"]) for c in doc["cells"] if c["status"] != "na"})
     # the page counts the thumbnails the browser actually loaded (naturalWidth > 0)
     assert f'data-thumbs-loaded="{shown}"' in dom, dom[:2000]
+
+
+@pytest.mark.parametrize("seed, clip, hand", [(4250, "hand_to_mouth", "arm0_l_hand"), (4250, "eat_fruit", "arm0_r_hand"),
+                                              (4249, "eat_fruit", "arm0_l_hand")])
+def test_a_hand_brought_to_the_mouth_stops_at_the_face(seed, clip, hand):
+    """``hand_to_mouth`` and ``eat_fruit`` aim the hand where its box touches the mouth's
+    (the secondary-relative mode's ``contact``): on these random creatures the hand used to
+    end 0.97 of the way to the mouth's centre, inside the head, with its arm folded round
+    its own shoulder (2.4-3.0 rad in one frame). Now no body turns more than the grid's 0.5
+    rad line and the hand is in no pair of boxes past the self-intersection fail line."""
+    from engine.anim.binding import bind
+    from engine.model import build_creature, random_creature_def
+
+    c = build_creature(random_creature_def(seed))
+    anim = engine.load_animation(os.path.join(os.path.dirname(WAVE), f"{clip}.yaml"))
+    b = bind(anim, c)
+    v = [k for k in range(b.nvariant) if b.variants[k].id == hand][0]
+    res, _ = run_cell(c, anim, v)
+    assert res.measures["rotation_pop"].value < 0.5, res.measures["rotation_pop"]
+    si = res.measures["self_intersection"]
+    # the hand is out of the head; an upper arm folded into the trunk (random 4249's
+    # spine7/arm0_l_seg0, 0.16 of the height) is the IK's, issue 16 item 1
+    assert hand not in si.body.split("/") or T.verdict("self_intersection", si.value) != T.FAIL, si

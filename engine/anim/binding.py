@@ -270,7 +270,8 @@ def _bind_variant(b: Binding, v: Variant) -> BoundVariant:
             else:
                 row = -1
             mirror = slot_mirror(ch.mirror, int(creature.body_side[body]), v.mirrored)
-            slots.append(Slot(body, ch.position, ch.rotation, mirror=mirror, target=row, channel=ci))
+            slots.append(Slot(body, ch.position, ch.rotation, mirror=mirror, target=row, channel=ci,
+                              target_body=row - n_ext if row >= n_ext else -1))
             slot_group.append(gid)
             per_channel[ci].append(body)
     consts = build_slots(creature, slots)

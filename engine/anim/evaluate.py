@@ -101,7 +101,8 @@ def bind_all(animation: Animation, creature) -> SimpleBinding:
             else:
                 row = -1
             mirror = bool(ch.mirror and creature.body_side[b] < 0)
-            slots.append(Slot(b, ch.position, ch.rotation, mirror=mirror, target=row, channel=int(ci)))
+            slots.append(Slot(b, ch.position, ch.rotation, mirror=mirror, target=row, channel=int(ci),
+                              target_body=row - n_ext if row >= n_ext else -1))
             slot_group.append(gid)
     per_channel = {i: [] for i in range(animation.nchannel)}
     for s in slots:

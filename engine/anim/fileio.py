@@ -17,7 +17,8 @@ File format 1::
         select: {type: grasper, y: left, extent: frontmost}     # the primary context query
         secondary: {type: mouth}     # or  target: fruit  (an external target)
         position: {mode: rest, ground: false, sagittal: false, directional_only: false,
-                   scale: limb_length}                            # mode: absolute|rest|secondary
+                   contact: false, scale: limb_length}            # mode: absolute|rest|secondary;
+                                                                  # contact (secondary): x = 1 where the boxes touch
         rotation: {mode: absolute, limits: [90, 180]}            # mode: absolute|rest|lookat;
                                                                   # lookat limits in degrees
         blend_group: arm        # optional (default: the channel's own group)
@@ -140,7 +141,7 @@ def _spec(item, ctx, field, cls, known):
     m = _mapping(item, ctx, field, known)
     kw = {}
     for key, sub in m.items():
-        if key in ("ground", "sagittal", "directional_only"):
+        if key in ("ground", "sagittal", "directional_only", "contact"):
             kw[key] = _bool(sub, ctx, f"{field}.{key}")
         elif key == "limits":
             kw[key] = _vec(sub, 2, ctx, f"{field}.limits")
@@ -233,7 +234,7 @@ def _channel(item, ctx):
         kw["target"] = _str(m["target"], ctx, "target")
     if "position" in m:
         kw["position"] = _spec(m["position"], ctx, "position", PositionSpec,
-                               ("mode", "ground", "sagittal", "directional_only", "scale"))
+                               ("mode", "ground", "sagittal", "directional_only", "scale", "contact"))
     if "rotation" in m:
         kw["rotation"] = _spec(m["rotation"], ctx, "rotation", RotationSpec, ("mode", "limits"))
     for key in ("blend_group", "variant_group", "side"):
@@ -382,7 +383,7 @@ def animation_to_text(a: Animation) -> str:
         if ch.position is not None:
             p = ch.position
             d = {"mode": p.mode}
-            for flag in ("ground", "sagittal", "directional_only"):
+            for flag in ("ground", "sagittal", "directional_only", "contact"):
                 if getattr(p, flag):
                     d[flag] = True
             if p.scale != "none":

@@ -29,6 +29,10 @@ ROT_LOOKAT = 3
 FLAG_GROUND = 1
 FLAG_SAGITTAL = 2
 FLAG_DIRECTIONAL = 4
+FLAG_CONTACT = 8
+#: With FLAG_CONTACT, the x axis keeps at least this fraction of the distance to the target
+#: (a body whose rest box already touches its target's would otherwise get no axis).
+CONTACT_KEEP = 0.25
 
 # Shortest secondary axis (m): a target sitting on the body's rest position gives a frame
 # along +X of this length, so S and G stay finite (G is then very sensitive, as it must be).
@@ -45,7 +49,9 @@ def position_frame_into(c, i, targets, origin, axes):
                   ground; with FLAG_SAGITTAL the y column is (0, sagittal_axis, 0):
                   y_g = 0 at rest, 1 on the sagittal plane y = 0.
     secondary     o = rest, x column = target - rest (1 at the target), or its unit
-                  direction * scale_x with FLAG_DIRECTIONAL (SecondaryDirectionalOnly);
+                  direction * scale_x with FLAG_DIRECTIONAL (SecondaryDirectionalOnly), or
+                  with FLAG_CONTACT shortened by both boxes' half-widths along it (1 where
+                  the body's rest box touches the target's; at least CONTACT_KEEP of it);
                   y = unit(e_z x x), z = x_hat x y, times scale_y, scale_z.
     The y column is multiplied by the slot's mirror sign (-1 mirrored), except the
     sagittal column, which already points toward the plane on either side.
@@ -88,6 +94,17 @@ def position_frame_into(c, i, targets, origin, axes):
             axes[0, 0] = ux * sx
             axes[1, 0] = uy * sx
             axes[2, 0] = uz * sx
+        elif flags & FLAG_CONTACT:
+            # x = 1 where the two boxes touch along u: the distance less both boxes'
+            # half-widths along u (each box's support: the sum of |u . half axis|)
+            reach = 0.0
+            for k in range(6):
+                reach += abs(ux * c.slot_contact[i, k, 0] + uy * c.slot_contact[i, k, 1]
+                             + uz * c.slot_contact[i, k, 2])
+            dc = max(d - reach, CONTACT_KEEP * d)
+            axes[0, 0] = ux * dc
+            axes[1, 0] = uy * dc
+            axes[2, 0] = uz * dc
         else:
             axes[0, 0] = dx
             axes[1, 0] = dy

@@ -32,6 +32,11 @@ Position modes (``PositionSpec``):
     drags the motion along and the rest pose stays the rest pose.
     With ``directional_only`` (SecondaryDirectionalOnly) the x axis keeps unit length
     (times the scale): the motion turns toward the target but keeps its size.
+    With ``contact`` x_g = 1 is where the body's box touches the target's instead of where
+    their origins meet: the x axis is shortened by both boxes' half-widths along it (their
+    rest orientations; an external target is a point), so a hand brought to a mouth stops
+    at the face, whatever the sizes of the hand, the head and the gap between them. The
+    axis keeps at least a quarter of the distance (``_kernels.CONTACT_KEEP``).
 
 Scale modes scale the axes that are not distorted: ``none`` (metres), ``creature_size``
 (non-uniform, by the character's bounding-box size along x, y, z, so 0.1 means a tenth of
@@ -80,7 +85,7 @@ MIN_GROUND_AXIS = 1e-9
 
 #: Words written as a position mode that are flags beside it (the file's field names).
 _FLAG_MODES = {"ground": "ground", "sagittal": "sagittal", "directional_only": "directional_only",
-               "directional": "directional_only"}
+               "directional": "directional_only", "contact": "contact"}
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,7 @@ class PositionSpec:
     sagittal: bool = False
     directional_only: bool = False
     scale: str = "none"
+    contact: bool = False
 
     def __post_init__(self) -> None:
         if self.mode not in POSITION_MODES:
@@ -103,7 +109,7 @@ class PositionSpec:
         if self.scale not in SCALE_MODES:
             raise DataError(f"unknown scale mode {self.scale!r} (known: {', '.join(SCALE_MODES)})",
                             field="scale")
-        for flag in ("ground", "sagittal", "directional_only"):
+        for flag in ("ground", "sagittal", "directional_only", "contact"):
             if not isinstance(getattr(self, flag), bool):
                 raise DataError(f"'{flag}' must be true or false", field=flag)
         if (self.ground or self.sagittal) and self.mode != "rest":
@@ -112,11 +118,14 @@ class PositionSpec:
         if self.directional_only and self.mode != "secondary":
             raise DataError("directional_only (SecondaryDirectionalOnly) needs mode 'secondary'",
                             field="directional_only")
+        if self.contact and (self.mode != "secondary" or self.directional_only):
+            raise DataError("contact (x = 1 where the boxes touch) needs mode 'secondary' without "
+                            "directional_only", field="contact")
 
     @property
     def flags(self) -> int:
         return ((K.FLAG_GROUND if self.ground else 0) | (K.FLAG_SAGITTAL if self.sagittal else 0)
-                | (K.FLAG_DIRECTIONAL if self.directional_only else 0))
+                | (K.FLAG_DIRECTIONAL if self.directional_only else 0) | (K.FLAG_CONTACT if self.contact else 0))
 
     @property
     def needs_target(self) -> bool:
@@ -164,6 +173,8 @@ class SlotConstants(NamedTuple):
     slot_forward (n, 3) float64     rest forward axis (the body's local +X), lookat
     slot_lookat_limits (n, 2)       soft joint limits, radians
     slot_target (n,) int32          row of the target table, -1 none
+    slot_contact (n, 6, 3) float64  contact mode: the body's rest box half axes (3) and
+                                    its target body's (3; zero for an external target)
     """
 
     slot_body: np.ndarray
@@ -180,6 +191,7 @@ class SlotConstants(NamedTuple):
     slot_forward: np.ndarray
     slot_lookat_limits: np.ndarray
     slot_target: np.ndarray
+    slot_contact: np.ndarray
 
     @property
     def nslot(self) -> int:
@@ -196,6 +208,7 @@ class Slot:
     mirror: bool = False
     target: int = -1
     channel: int = 0
+    target_body: int = -1      # the body whose position the target row holds (-1: external)
 
 
 def body_reach(creature, body: int) -> float:
@@ -212,6 +225,14 @@ def ground_height(creature, body: int) -> float:
 
     rot = quat_to_matrix(np.ascontiguousarray(creature.body_rest_rot[body]))
     return float(np.abs(rot[2]) @ creature.body_extent[body])
+
+
+def _half_axes(creature, body: int) -> np.ndarray:
+    """(3, 3) rows: the body's rest box axes times its half extents, character space."""
+    from engine.mathx.quat import quat_to_matrix
+
+    rot = quat_to_matrix(np.ascontiguousarray(creature.body_rest_rot[body]))
+    return (rot * np.asarray(creature.body_extent[body], float)[None, :]).T
 
 
 def build_slots(creature, slots: list[Slot]) -> SlotConstants:
@@ -233,6 +254,7 @@ def build_slots(creature, slots: list[Slot]) -> SlotConstants:
         slot_mirror_sign=np.ones(n), slot_forward=np.zeros((n, 3)),
         slot_lookat_limits=np.tile(np.radians(LOOKAT_LIMITS), (n, 1)).reshape(n, 2),
         slot_target=np.array([s.target for s in slots], np.int32).reshape(n),
+        slot_contact=np.zeros((n, 6, 3)),
     )
     from engine.mathx.quat import quat_rotate
 
@@ -253,6 +275,10 @@ def build_slots(creature, slots: list[Slot]) -> SlotConstants:
             side = int(creature.body_side[b])
             y = float(creature.body_rest_pos[b, 1])
             out["slot_sagittal_axis"][i] = -y if side != 0 else -SAGITTAL_MIN * big * sign
+            if p.contact:
+                out["slot_contact"][i, :3] = _half_axes(creature, b)
+                if 0 <= s.target_body < creature.nbody:
+                    out["slot_contact"][i, 3:] = _half_axes(creature, s.target_body)
         if s.rotation is not None:
             out["slot_rot_mode"][i] = ROTATION_MODES[s.rotation.mode]
             out["slot_lookat_limits"][i] = np.radians(s.rotation.limits)
