@@ -342,6 +342,13 @@ def _box_min_z(centre: np.ndarray, rot: np.ndarray, half: np.ndarray) -> float:
     return lowest
 
 
+def _back_on_ground(joint_pos: np.ndarray, centre: np.ndarray, rot: np.ndarray, half: np.ndarray):
+    """``joint_pos`` and ``centre`` moved along z so the lowest box corner is at z = 0 (after
+    the relaxed rest turned limbs: straighter legs reach lower, a hanging arm's box may)."""
+    dz = np.array([0.0, 0.0, -_box_min_z(centre, rot, half)])
+    return joint_pos + dz, centre + dz
+
+
 # -- the creature ------------------------------------------------------------------------
 
 
@@ -431,10 +438,8 @@ def creature_def_from_bvh_explained(clip_or_path, caps_table=None, scale=None, n
         joint_pos, centre, rot, _, legs = relax_legs(clip.joint_parent, caps, joint_pos, centre, rot, delta)
         for f, s, ang in legs:
             reasons[f] += f"; leg turned in under the hip at {clip.joint_names[s]} ({ang:.0f} deg out before)"
-        if turned or legs:   # straighter legs reach lower, a hanging arm's box may: back on the ground
-            dz = np.array([0.0, 0.0, -_box_min_z(centre, rot, half)])
-            joint_pos = joint_pos + dz
-            centre = centre + dz
+        if turned or legs:
+            joint_pos, centre = _back_on_ground(joint_pos, centre, rot, half)
     elif rest != "file":
         raise DataError(f"rest must be 'relaxed', 'file' or a frame number, got {rest!r}", path=clip.path,
                         field="rest")

@@ -947,7 +947,7 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
         source_mesh = _source_mesh(gf, skinned_prims, slot_body, scale, shift, file_box[0], file_box[1], names)
     relaxed = []
     if rest == "relaxed":
-        from engine.io.bvh_creature import _box_min_z
+        from engine.io.bvh_creature import _back_on_ground
         from engine.model.rest_pose import relax_arms, relax_legs
 
         joint_pos, centre, rotq, rest_delta, turned = relax_arms(bparent, caps, joint_pos, centre, rotq)
@@ -955,10 +955,8 @@ def import_gltf(path: str | os.PathLike, skin: int | None = None, caps_table: di
         joint_pos, centre, rotq, rest_delta, legs = relax_legs(bparent, caps, joint_pos, centre, rotq, rest_delta)
         relaxed += [f"{names[f]} (leg turned in under the hip at {names[sh]}, {ang:.0f} deg out before)"
                     for f, sh, ang in legs]
-        if turned or legs:   # straighter legs reach lower, a hanging arm's box may: back on the ground
-            dz = np.array([0.0, 0.0, -_box_min_z(centre, rotq, half)])
-            joint_pos = joint_pos + dz
-            centre = centre + dz
+        if turned or legs:
+            joint_pos, centre = _back_on_ground(joint_pos, centre, rotq, half)
     elif rest != "file":
         raise GltfError(f"rest must be 'relaxed' or 'file', got {rest!r}", path=path, field="rest")
     if name is None:

@@ -73,6 +73,45 @@ def _quat_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _children(parent) -> list[list[int]]:
+    children = [[] for _ in range(len(parent))]
+    for j in range(1, len(parent)):
+        if parent[j] >= 0:
+            children[parent[j]].append(j)
+    return children
+
+
+def _limb_pivot(parent, caps, joint, end: int, fraction: float) -> int | None:
+    """The body on the chain from where it leaves the spine to ``end`` whose joint lies
+    ``fraction`` of the chain's length (along the joints) from ``end``: a shoulder, a hip.
+    None for a chain of one body or of no length."""
+    path = [end]
+    while parent[path[-1]] >= 0 and "spine" not in caps[parent[path[-1]]]:
+        path.append(int(parent[path[-1]]))
+    path.reverse()  # chain start ... end
+    if len(path) < 2:
+        return None
+    along = np.zeros(len(path))  # distance along the joints to the end
+    for i in range(len(path) - 2, -1, -1):
+        along[i] = along[i + 1] + float(np.linalg.norm(joint[path[i + 1]] - joint[path[i]]))
+    total = along[0]
+    if total <= 0:
+        return None
+    return path[int(np.argmin(np.abs(along[:-1] / total - fraction)))]
+
+
+def _turn_subtree(children, root: int, pivot: np.ndarray, q: np.ndarray, joint, pos, rot, delta) -> None:
+    """Turn ``root`` and every body below it by ``q`` about ``pivot`` (a rigid turn)."""
+    stack = [root]
+    while stack:
+        b = stack.pop()
+        joint[b] = pivot + quat_rotate(q, joint[b] - pivot)
+        pos[b] = pivot + quat_rotate(q, pos[b] - pivot)
+        rot[b] = quat_mul(q, rot[b])
+        delta[b] = quat_mul(q, delta[b])
+        stack.extend(children[b])
+
+
 def relax_arms(parent, caps, joint, pos, rot):
     """Swing T-/A-pose arms down (see the module docstring).
 
@@ -91,30 +130,16 @@ def relax_arms(parent, caps, joint, pos, rot):
     pos = np.array(pos, float)
     rot = np.array(rot, float)
     delta = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-    children = [[] for _ in range(n)]
-    for j in range(1, n):
-        if parent[j] >= 0:
-            children[parent[j]].append(j)
+    children = _children(parent)
     ground = 0.0
     height = float(max(joint[:, 2].max(), pos[:, 2].max()) - ground)
     turned = []
     for g in range(n):
         if "grasper" not in caps[g] or "spine" in caps[g]:
             continue
-        path = [g]
-        while parent[path[-1]] >= 0 and "spine" not in caps[parent[path[-1]]]:
-            path.append(int(parent[path[-1]]))
-        path.reverse()  # chain start ... grasper
-        if len(path) < 2:
+        s = _limb_pivot(parent, caps, joint, g, SHOULDER_FRACTION)
+        if s is None:
             continue
-        along = np.zeros(len(path))  # distance along the joints to the grasper
-        for i in range(len(path) - 2, -1, -1):
-            along[i] = along[i + 1] + float(np.linalg.norm(joint[path[i + 1]] - joint[path[i]]))
-        total = along[0]
-        if total <= 0:
-            continue
-        k = int(np.argmin(np.abs(along[:-1] / total - SHOULDER_FRACTION)))
-        s = path[k]
         d = joint[g] - joint[s]
         length = float(np.linalg.norm(d))
         if length <= 1e-9:
@@ -129,29 +154,10 @@ def relax_arms(parent, caps, joint, pos, rot):
         reach = float(np.max([np.linalg.norm(c - joint[s]) for c in (pos[g], joint[g])]))
         if joint[s, 2] - reach * np.cos(SPLAY) < ground + 0.02 * height:
             continue
-        q = _quat_between(d, target)
-        stack = [s]
-        while stack:
-            b = stack.pop()
-            joint[b] = joint[s] + quat_rotate(q, joint[b] - joint[s])
-            pos[b] = joint[s] + quat_rotate(q, pos[b] - joint[s])
-            rot[b] = quat_mul(q, rot[b])
-            delta[b] = quat_mul(q, delta[b])
-            stack.extend(children[b])
+        _turn_subtree(children, s, joint[s].copy(), _quat_between(d, target), joint, pos, rot, delta)
         turned.append((g, s, float(np.degrees(angle))))
     rot /= np.linalg.norm(rot, axis=1, keepdims=True)
     return joint, pos, rot, delta, turned
-
-
-def _turn_subtree(children, root: int, pivot: np.ndarray, q: np.ndarray, joint, pos, rot, delta) -> None:
-    stack = [root]
-    while stack:
-        b = stack.pop()
-        joint[b] = pivot + quat_rotate(q, joint[b] - pivot)
-        pos[b] = pivot + quat_rotate(q, pos[b] - pivot)
-        rot[b] = quat_mul(q, rot[b])
-        delta[b] = quat_mul(q, delta[b])
-        stack.extend(children[b])
 
 
 def relax_legs(parent, caps, joint, pos, rot, delta=None):
@@ -168,28 +174,16 @@ def relax_legs(parent, caps, joint, pos, rot, delta=None):
     pos = np.array(pos, float)
     rot = np.array(rot, float)
     delta = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)) if delta is None else np.array(delta, float)
-    children = [[] for _ in range(n)]
-    for j in range(1, n):
-        if parent[j] >= 0:
-            children[parent[j]].append(j)
+    children = _children(parent)
     feet = [f for f in range(n) if "foot" in caps[f] and "spine" not in caps[f]
             and not (parent[f] >= 0 and "foot" in caps[parent[f]])]
     if len(feet) != 2:
         return joint, pos, rot, delta, []
     legs = []
     for f in feet:
-        path = [f]
-        while parent[path[-1]] >= 0 and "spine" not in caps[parent[path[-1]]]:
-            path.append(int(parent[path[-1]]))
-        path.reverse()  # chain start ... foot
-        if len(path) < 2:
+        hip = _limb_pivot(parent, caps, joint, f, HIP_FRACTION)
+        if hip is None:
             return joint, pos, rot, delta, []
-        along = np.zeros(len(path))
-        for i in range(len(path) - 2, -1, -1):
-            along[i] = along[i + 1] + float(np.linalg.norm(joint[path[i + 1]] - joint[path[i]]))
-        if along[0] <= 0:
-            return joint, pos, rot, delta, []
-        hip = path[int(np.argmin(np.abs(along[:-1] / along[0] - HIP_FRACTION)))]
         d = joint[f] - joint[hip]
         side = float(np.sign(joint[hip, 1] - joint[0, 1]))
         if d[2] >= 0.0 or side == 0.0:
