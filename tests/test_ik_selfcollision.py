@@ -141,7 +141,12 @@ def test_clap_stops_the_hands_at_each_other():
     hands = ["hand_l", "hand_r"]
     w_on, w_off = worst(on, ctx, c, hands[:1], hands[1:]), worst(off, ctx, c, hands[:1], hands[1:])
     assert w_off > 0.03            # the goals put the hands through each other
-    assert w_on < 0.75 * w_off and w_on < FAIL
+    # The hands stop where ``settle_goals`` put their goals, a capsule apart; their flat
+    # boxes still overlap there (0.036 h, 0.041 h without self-collision). Until stop 37
+    # the pushes after the iterations moved both held hands further apart (0.030 h), and
+    # arms turned over where they did (the grid with self-collision on: 44 flip cells
+    # against 25).
+    assert w_on < 0.95 * w_off and w_on < FAIL
 
 
 def test_hug_goes_around_the_torso():
@@ -179,10 +184,10 @@ def test_library_creatures_with_arms_stay_out_of_themselves(name):
     """Never deeper than without self-collision, and below the grid's fail line except
     where a flat box's round proxy leaves it short: gorilla clap (the hands stop at each
     other, the forearms' flat boxes then overlap 0.063 h; 0.064 h without) and giant
-    hand_to_mouth (forearm into the chest's box, 0.071 -> under 0.0665 h with its goals
-    settled in front of the face; 0.064 h before the settle). Capsules are round:
-    box proxies would close the rest."""
-    short = {("gorilla", "clap"): 0.065, ("giant", "hand_to_mouth"): 0.0665}
+    hand_to_mouth (forearm into the chest's box, 0.073 h with its goals settled in front of
+    the face and the held hand kept there; 0.0665 h when the pushes moved the held hand,
+    0.064 h before the settle). Capsules are round: box proxies would close the rest."""
+    short = {("gorilla", "clap"): 0.065, ("giant", "hand_to_mouth"): 0.074}
     c = creature(name)
     for a in ("clap", "hug", "hand_to_mouth"):
         try:
@@ -208,8 +213,8 @@ def test_random_creatures_clap_without_passing_through_themselves():
         # Two rounds resolve the deep contact but may leave another pair a little deeper
         # than without: seed 3's arm against its wing, a free body the runtime swings by
         # secondary motion while the solver sees it rigid at rest on its spine body
-        # (0.0430 -> 0.0455 h).
-        assert on.max() <= off.max() + 3e-3, (seed, on.max(), off.max())
+        # (0.0430 -> 0.0455 h; 0.0476 -> 0.0508 h since held hands stay on their goals).
+        assert on.max() <= off.max() + 4e-3, (seed, on.max(), off.max())
         if off.max() > FAIL:        # seed 4: 0.0725 -> 0.0654 h
             # (the skin band that keeps sweeps smooth leaves up to 3/8 of the thinner
             # radius of a deep contact after two rounds: 0.060 h before it)
@@ -373,16 +378,18 @@ def test_a_hug_with_self_collision_turns_nothing_fast(name):
     assert turn.max() < 0.12, (c.body_names[int(np.argmax(turn.max(axis=0)))], turn.max())
 
 
-def test_pushes_inside_the_iterations_keep_the_hand_nearer_its_goal():
-    """``self_collision_iterate``: contacts pushed inside the limb iterations with the
-    goal-held particles fixed route the forearm round the belly while the hand stays at
-    its goal, where pushes after the iterations alone take the hand off it. The grid's
-    humanoid point_at_target cell with one of its random targets in front of the belly
-    (reach_miss, share of the arm's reach): 0.092 after the iterations alone, 0.070 with
-    the pushes inside them (measured in stop 30)."""
+def test_a_held_limb_turns_round_the_belly_and_keeps_its_goal():
+    """The pushes after the limb iterations turn a limb whose end is held about the line
+    from its root to that end (``_collide._swivel_runs``): the elbow goes round the belly,
+    the hand stays at its goal. The grid's humanoid point_at_target cell with one of its
+    random targets in front of the belly (reach_miss, share of the arm's reach): before
+    the swivel, the pushes took the hand off its goal (0.092, measured in stop 30; 0.070
+    with ``self_collision_iterate``); now nearer with either, and the arm less deep in the
+    body than without self-collision (where the hand meets its goal exactly)."""
     from engine.validation.cell import CellContext, cell_target_sets
     from engine.validation.goals import goal_error
     from engine.validation.record import record_cell
+    from engine.validation.selfcollision import self_intersection
 
     c = creature("humanoid")
     a = anim("point_at_target")
@@ -390,9 +397,12 @@ def test_pushes_inside_the_iterations_keep_the_hand_nearer_its_goal():
     v = b.variants[0]
     targets = cell_target_sets(a, c, b, v)[1]
     ctx = CellContext.for_creature(c)
-    miss = {}
-    for it in (False, True):
-        prm = IKParams(self_collision=True, self_collision_iterate=it)
+    miss, depth = {}, {}
+    for key, prm in (("off", OFF), ("on", ON), ("iterate", IKParams(self_collision=True,
+                                                                      self_collision_iterate=True))):
         rec = record_cell(c, a, v.index, targets, character=engine.Character(c, ik_params=prm))
-        miss[it] = next(m.value for m in goal_error(rec, ctx) if m.name == "reach_miss")
-    assert miss[True] < 0.85 * miss[False], miss
+        miss[key] = next(m.value for m in goal_error(rec, ctx) if m.name == "reach_miss")
+        depth[key] = self_intersection(rec, ctx)[0].value
+    # measured: off 0 / 0.074 h deep; on 0.044 / 0.064 h; with iterate 0.042 / 0.048 h
+    assert miss["on"] < 0.06 and miss["iterate"] < 0.06, miss
+    assert depth["on"] < 0.9 * depth["off"] and depth["iterate"] < 0.9 * depth["off"], depth

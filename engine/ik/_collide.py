@@ -44,6 +44,8 @@ NF_PROX = 8      # floats per proxy
 W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
 MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
 SKIN = 1.0       # depth (share of the thinner capsule's radius) over which a contact's push ramps in
+SWIVEL_REG = 0.15  # a limb's swivel counts its particles at least this share of its line's length off it
+SWIVEL_MAX = 0.3   # most a limb swivels in one round of ``resolve``, rad
 
 
 @njit(cache=True, _nrt=False)
@@ -306,10 +308,12 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
     """One pass over the pairs: each overlapping deeper than at rest pushes its movers'
     particles apart along the contact normal. The pushes are averaged per particle and
     applied after the pass (Jacobi), so the result does not depend on the order of the pairs: a creature's
-    left and right stay mirror images. With ``hold`` (the pushes inside the limb
+    left and right stay mirror images. With ``hold`` 1 (the pushes inside the limb
     iterations, ``push_round``) a particle pinned by a goal (``lp_inv`` 0) takes no share:
     its bone turns about it, so an elbow goes round the chest while the hand stays on its
-    goal. Returns how many pairs pushed."""
+    goal. With ``hold`` 2 (``resolve``, after the iterations) the same, and a limb whose
+    end is held turns about the line to that end instead of being moved off it
+    (``_swivel_runs``). Returns how many pairs pushed."""
     nprox = cl_i[0]
     nmove = cl_i[1]
     npair = cl_i[2]
@@ -368,7 +372,6 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         hb = NI_HEAD + NI_PROX * kb
         ia, ca = cl_i[ha + 1], cl_i[ha + 2]
         ib, cb = cl_i[hb + 1], cl_i[hb + 2]
-        denom = 0.0
         # weights of the pivot (1 - u) and direction (u) particles; a body held by a
         # rotation goal is moved whole (both particles alike) as far as the goal holds it;
         # a chain's end body is pushed at its pivot and its tip follows (``_rigid_end``)
@@ -378,14 +381,20 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
         vb = 0.0
         if ia >= 0:
             va, ua = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ia, ca, qa)
-            if hold:
-                va, ua = _held(lp_inv, ia, ca, va, ua, _rigid_end(P, ca))
-            denom += va * va + ua * ua
         if ib >= 0:
             vb, ub = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ib, cb, qb)
-            if hold:
+        if hold:
+            # pinned particles take no share. A contact only they could answer (two
+            # clapping hands, a hand held against the torso) stays as the goals put it:
+            # ``settle_goals`` has moved the goals a capsule apart, and moving a held
+            # hand here, then giving its arm its length back from the shoulder, turned
+            # arms over (main grid with self-collision on: 25 flip cells without it,
+            # 44-46 with it for every such contact or only the limb-limb ones)
+            if ia >= 0:
+                va, ua = _held(lp_inv, ia, ca, va, ua, _rigid_end(P, ca))
+            if ib >= 0:
                 vb, ub = _held(lp_inv, ib, cb, vb, ub, _rigid_end(P, cb))
-            denom += vb * vb + ub * ub
+        denom = va * va + ua * ua + vb * vb + ub * ub
         if denom <= 0.0:
             continue
         lam = pen / max(denom, MIN_DENOM)
@@ -408,9 +417,13 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
                 for j in range(3):
                     delta[i, j] /= k
                 count[i, 0] = 0.0
+        if hold == 2:
+            _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count)
         for i in range(nlp):
             if hold and lp_inv[i] <= 0.0:
                 continue
+            if hold == 2 and count[i, 2] > 0.0:
+                continue          # turned with its run (``_swivel_runs``)
             src = P.lp_parent[i] if _rigid_end(P, i) else i
             for j in range(3):
                 lp_pos[i, j] += delta[src, j]
@@ -418,6 +431,82 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
             for j in range(3):
                 delta[i, j] = 0.0
     return pushed
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count):
+    """The pushes on a limb whose end is held by a goal, taken as a turn of the limb
+    about the line from where it hangs to its held end (the swivel of an elbow about the
+    shoulder-wrist line): every bone keeps its length and the held end stays on its goal,
+    so an elbow tucked into the chest swings out instead of the hand being pushed off
+    the goal and the arm projected back to length from the shoulder (which moved the hand
+    by up to the push: the grid's reach_miss with self-collision on).
+
+    A *run* is a maximal chain of free particles (``lp_inv`` > 0) each with one child,
+    ending on a pinned one (``e``); it hangs from ``a``, the parent of its top (a limb
+    root, a pinned particle, or a fork). The run turns rigidly about the line a-e by the
+    angle that best carries its pushed particles along their pushes (least squares,
+    linear in the angle; the rounds of ``resolve`` iterate it). What the turn cannot
+    give (a push along the line, or toward or away from it) is dropped: the goal wins.
+    Marks the run's particles in ``count[:, 2]`` so the pass does not translate them;
+    ``count[:, 1]`` is scratch (children per particle)."""
+    nlp = lp_pos.shape[0]
+    for i in range(nlp):
+        count[i, 1] = 0.0
+        count[i, 2] = 0.0
+    for i in range(nlp):
+        p = lp_parent[i]
+        if p >= 0:
+            count[p, 1] += 1.0
+    for e in range(nlp):
+        if lp_inv[e] > 0.0:
+            continue
+        p = lp_parent[e]
+        if p < 0 or lp_inv[p] <= 0.0 or count[p, 1] != 1.0:
+            continue
+        top = p
+        while True:
+            q = lp_parent[top]
+            if q < 0 or lp_inv[q] <= 0.0 or count[q, 1] != 1.0:
+                break
+            top = q
+        a = lp_parent[top]
+        if a < 0:
+            continue
+        pa = _v3(lp_pos, a)
+        ax = _sub(_v3(lp_pos, e), pa)
+        la = math.sqrt(_dot(ax, ax))
+        num = 0.0
+        den = 0.0
+        j = p
+        while True:
+            count[j, 2] = 1.0
+            if la > EPS:
+                r = _sub(_v3(lp_pos, j), pa)
+                rp = _sub(r, _scale(ax, _dot(r, ax) / (la * la)))
+                t = _scale(_cross(ax, rp), 1.0 / la)
+                num += _dot(t, _v3(delta, j))
+                den += _dot(rp, rp)
+            if j == top:
+                break
+            j = lp_parent[j]
+        if la <= EPS:
+            continue
+        # A straight limb lies on its line and cannot turn out of anything: the
+        # denominator keeps SWIVEL_REG of the line's length squared, so a run near the
+        # line turns little instead of spinning by a push / (its distance from the line),
+        # and one round turns at most SWIVEL_MAX (smoothly saturated)
+        theta = num / (den + SWIVEL_REG * SWIVEL_REG * la * la)
+        theta = SWIVEL_MAX * math.tanh(theta / SWIVEL_MAX)
+        h = 0.5 * theta
+        sh = math.sin(h) / la
+        q = (math.cos(h), ax[0] * sh, ax[1] * sh, ax[2] * sh)
+        j = p
+        while True:
+            _set3(lp_pos, j, _add(pa, _rot(q, _sub(_v3(lp_pos, j), pa))))
+            if j == top:
+                break
+            j = lp_parent[j]
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -449,7 +538,7 @@ def push_round(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_r
     being pushed off its goal at the end."""
     work = _work(P, scratch, lp_pos)
     return _push_pairs(P, P.cl_i, P.cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
-                       lp_pos.shape[0] >= 0)   # True, but not a literal: one compile of _push_pairs
+                       1 * (lp_pos.shape[0] >= 0))   # 1, but not a literal: one compile of _push_pairs
 
 
 @njit(cache=True, _nrt=False, forceinline=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -465,7 +554,7 @@ def resolve(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot,
     total = 0
     for _round in range(cl_i[4]):
         pushed = _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot, lp_inv,
-                             lp_pos.shape[0] < 0)   # False, not a literal (see push_round)
+                             2 * (lp_pos.shape[0] >= 0))   # 2, not a literal (see push_round)
         if pushed == 0:
             break
         total += pushed
