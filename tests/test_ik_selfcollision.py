@@ -406,3 +406,45 @@ def test_a_held_limb_turns_round_the_belly_and_keeps_its_goal():
     # measured: off 0 / 0.074 h deep; on 0.044 / 0.064 h; with iterate 0.042 / 0.048 h
     assert miss["on"] < 0.06 and miss["iterate"] < 0.06, miss
     assert depth["on"] < 0.9 * depth["off"] and depth["iterate"] < 0.9 * depth["off"], depth
+
+
+def test_a_planted_foot_is_never_settled():
+    """A foot's goal is its place on the ground, chosen by the standing or gait stage:
+    settling it out of a body would slide a planted foot (random creature 4246's crowded
+    legs slid 7 mm in four grid cells). A foot goal inside the pelvis stays where it is; a
+    hand goal at the same place is moved out."""
+    from engine.ik.selfcollision import settled_goals
+
+    c, goals, rp, rr, rest_pos = _settle_case("humanoid", ON)
+    pelvis, hl, fl = c.body("pelvis"), c.body("hand_l"), c.body("foot_l")
+    gp = rest_pos.copy()
+    gp[fl] = rest_pos[pelvis]
+    gp[hl] = rest_pos[pelvis] + np.array([0.0, 0.01, 0.0])
+    gw = np.zeros(c.nbody)
+    gw[goals] = 1.0
+    pos, rot = _solve(c, goals, ON, rp, rr, gp)
+    sg = settled_goals(plan_for(c, goals, ON), gp, gw, pos, rot)
+    assert np.array_equal(sg[fl], gp[fl])
+    assert np.linalg.norm(sg[hl] - gp[hl]) > 0.05
+
+    from engine.ik.selfcollision import _planted
+    assert _planted(c, fl) and not _planted(c, hl)
+
+
+def test_an_arm_reaching_past_a_neck_does_not_turn_the_head():
+    """A neck and its head are aimed by the animation: in a contact with an arm the arm
+    moves alone (the proxies' yield). The twoheaded's left neck turned 0.72 rad between
+    two frames in point_at_target when the raised shoulder and upper arm pushed it."""
+    from engine.validation.cell import cell_target_sets
+    from engine.validation.record import record_cell
+
+    c = creature("twoheaded")
+    a = anim("point_at_target")
+    b = bind(a, c)
+    v = next(v for v in b.variants if v.id == "hand_l")
+    neck = c.body("neck_l")
+    for targets in cell_target_sets(a, c, b, v):
+        rec = record_cell(c, a, v.index, targets, character=engine.Character(c, ik_params=ON))
+        q = rec.world_rot[:, neck]
+        turn = 2.0 * np.arccos(np.clip(np.abs(np.sum(q[1:] * q[:-1], axis=-1)), 0.0, 1.0))
+        assert turn.max() < 0.3, turn.max()

@@ -19,7 +19,8 @@ inside another body is met at its surface.
 Layout (one int32 and one float64 field of the plan, see ``engine.ik.selfcollision``):
 ``cl_i`` = [nprox, nmove, npair, work_row, rounds, then per proxy (carrier, pivot, dir),
 then per pair (a, b)]; movers come first (pivot >= 0). ``cl_f`` = per proxy (a (3), b (3)
-in the carrier's frame, radius, bound = half length + radius), then per pair the rest
+in the carrier's frame, radius, bound = half length + radius, yield: 0 for a body that
+carries a head, which lets the other side of its contacts move alone), then per pair the rest
 pose's own overlap (m), which is allowed, and the square of the distance between the
 two capsules' middles beyond which they cannot touch. Work rows in the scratch: ``W``
 per proxy (the world ends of its capsule, their middle, a mover's rest offsets), then
@@ -40,12 +41,15 @@ from numba import njit
 EPS = 1e-12
 NI_HEAD = 6      # ints before the per-proxy records
 NI_PROX = 3      # ints per proxy
-NF_PROX = 8      # floats per proxy
+NF_PROX = 9      # floats per proxy
 W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
 MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
 SKIN = 1.0       # depth (share of the thinner capsule's radius) over which a contact's push ramps in
-SWIVEL_REG = 0.15  # a limb's swivel counts its particles at least this share of its line's length off it
+SWIVEL_REG = 0.5   # a limb's swivel counts its particles at least this share of its line's length off it
+                   # (0.15: random 4259's hold_platter arms turned 0.58 rad between two frames)
 SWIVEL_MAX = 0.3   # most a limb swivels in one round of ``resolve``, rad
+EXIT_FULL = 0.25   # an exit side weaker than this (share of a unit) leans a settled goal proportionally less
+SETTLE_CORE = 0.125  # share of a proxy's radius about the point where a settled goal has no way out
 
 
 @njit(cache=True, _nrt=False)
@@ -383,6 +387,14 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
             va, ua = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ia, ca, qa)
         if ib >= 0:
             vb, ub = _side_weights(P, lp_body, lp_parent, goal_rot_w, lp_pos, ib, cb, qb)
+        if cl_f[fa + 8] != cl_f[fb + 8]:
+            # a neck or head (yield 0) against a limb that yields: the limb moves alone,
+            # the head stays where its animation aims it (the twoheaded's and random
+            # creatures' necks were turned by the arm reaching past them to the mouth)
+            va *= cl_f[fa + 8]
+            ua *= cl_f[fa + 8]
+            vb *= cl_f[fb + 8]
+            ub *= cl_f[fb + 8]
         if hold:
             # pinned particles take no share. A contact only they could answer (two
             # clapping hands, a hand held against the torso) stays as the goals put it:
@@ -617,7 +629,8 @@ def _perp(v, ax, aa):
 
 @njit(cache=True, _nrt=False, inline="always")
 def _exit_side(P, gi, q, ax, aa, out_pos, out_rot):
-    """Unit direction a goal on a fixed proxy's axis (at q, axis ax) leaves by: the
+    """Direction a goal on a fixed proxy's axis (at q, axis ax) leaves by (unit, or
+    shorter where it is weakly defined; see the end): the
     creature's forward (the root's +X) across the axis, where the axis is not itself
     forward, else the side of the goal's limb root. It depends on the posed carrier only,
     never on the goal, so the settled goal is continuous in the goal."""
@@ -628,10 +641,12 @@ def _exit_side(P, gi, q, ax, aa, out_pos, out_rot):
     u = _scale(fwd, nf)   # weight forward by how well it crosses the axis
     if ns > EPS:
         u = _add(u, _scale(side, (1.0 - nf) / ns))
+    # unit where it is well defined, shrinking to nothing where neither direction crosses
+    # the axis (normalized there, a tiny u would turn the lean over as the limb root's
+    # side passes the axis); ``settle_goals`` fades the push out where the goal's offset
+    # and this lean cancel
     nu = math.sqrt(_dot(u, u))
-    if nu < EPS:
-        return (0.0, 0.0, 1.0)
-    return _scale(u, 1.0 / nu)
+    return _scale(u, 1.0 / max(nu, EXIT_FULL))
 
 
 @njit(cache=True, _nrt=False, inline="always")
@@ -669,7 +684,7 @@ def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
                 continue
             rg = cl_f[NF_PROX * cl_i[gs + 3 * gi] + 6]
             g = _v3(moved, b)
-            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * cl_i[gs + 3 * gi + 2], 3):
+            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * max(cl_i[gs + 3 * gi + 2], 0), 3):
                 if cl_i[e + 2] >= 0:
                     continue
                 p = cl_i[e]
@@ -698,19 +713,28 @@ def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
                 lean = 0.25 * rk * min(m / band, 1.0)
                 n = _add(d, _scale(_exit_side(P, gi, q, ax, aa, out_pos, out_rot), lean))
                 nn = math.sqrt(_dot(n, n))
-                if nn < EPS:
+                # n vanishes where the offset from the axis cancels the lean (a goal a lean
+                # from the axis on the side opposite the exit): no direction out is right
+                # there, so the move fades to nothing within SETTLE_CORE of the proxy's
+                # radius of that point instead of turning over as the goal passes it
+                core = SETTLE_CORE * rk
+                if nn < core:
+                    x = nn / core
+                    m *= x * x * (3.0 - 2.0 * x)
+                if nn < EPS or m <= 0.0:
                     continue
                 g = _add(q, _scale(n, (dist + m) / nn))
             _set3(moved, b, g)
-        # limb goal bodies apart (each pair once: the lower goal index does it)
+        # limb goal bodies apart (each pair once: the lower goal index does it; never a
+        # planted foot's, entries -1: ``selfcollision._planted``)
         for gi in range(ngoal):
             b = P.goal_body[gi]
             if P.goal_lp[gi] < 0 or goal_pos_w[b] <= 0.0:
                 continue
             rg = cl_f[NF_PROX * cl_i[gs + 3 * gi] + 6]
-            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * cl_i[gs + 3 * gi + 2], 3):
+            for e in range(cl_i[gs + 3 * gi + 1], cl_i[gs + 3 * gi + 1] + 3 * max(cl_i[gs + 3 * gi + 2], 0), 3):
                 gj = cl_i[e + 2]
-                if gj <= gi:
+                if gj <= gi or cl_i[gs + 3 * gj + 2] < 0:
                     continue
                 bj = P.goal_body[gj]
                 if goal_pos_w[bj] <= 0.0:

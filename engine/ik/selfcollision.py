@@ -15,11 +15,14 @@ nor shrunk to its thickness), the capsule's ends inside the box's ends. Carried 
 
 Pairs: every two bodies that are not parent and child (the validation grid's
 ``self_intersection`` tests the same pairs), skipping pairs that cannot move apart in the
-limb phase (both fixed, or both on the same bone) and siblings pivoting about one joint
+limb phase (both fixed, or both on the same bone), siblings pivoting about one joint
 (their joints closer than their two radii: a fork's toes, a hand's fingers, which touch
-at the joint by construction and turn into each other there whenever the fork folds).
-Each pair may overlap as deeply as its proxies do in the rest pose (creatures are built
-with boxes overlapping at a shoulder or a neck: that is theirs).
+at the joint by construction and turn into each other there whenever the fork folds) and
+siblings whose proxies already touch at rest (a neck and the shoulder beside it on the
+chest: the raised shoulder pushed the neck and the head it carries, 0.72 rad in one
+frame on the twoheaded). Each pair may overlap as deeply as its proxies do in the rest
+pose (creatures are built with boxes overlapping at a shoulder or a neck: that is theirs).
+A planted foot's goal is never settled (``_planted``).
 """
 
 from __future__ import annotations
@@ -57,6 +60,14 @@ def closest_distance(a0, a1, b0, b1):
     return float(np.linalg.norm((a0 + s * (a1 - a0)) - (b0 + t * (b1 - b0))))
 
 
+def _planted(c, b: int) -> bool:
+    """Whether body b's goal is a foot's place on the ground (a foot that is not also a
+    grasper): the standing and gait stages chose it, and settling it out of a neighbouring
+    leg's proxy would slide a planted foot (random creature 4246's crowded legs: 7 mm, the
+    grid's standing_slide failing in four cells), so it is never settled."""
+    return c.has_cap(b, "foot") and not c.has_cap(b, "grasper")
+
+
 def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: int, work_row: int,
           goal_body=(), goal_lp=()):
     """(cl_i int32, cl_f float64, work rows, pair bodies (npair, 2) int64) for one plan.
@@ -87,6 +98,17 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         return o, -1, -1, o
 
     owners = [owner(b) for b in range(n)]
+    # bodies that carry a head (a neck, the head itself and what rides on it): their pushes
+    # go to the other side of a contact when that side yields (an arm)
+    head_borne = [False] * n
+    on_head = [False] * n
+    for b in range(n):                  # a head and what rides on it (jaw, eyes, ears)
+        on_head[b] = c.has_cap(b, "head") or (parent[b] >= 0 and on_head[int(parent[b])])
+    for b in range(n - 1, -1, -1):     # and the neck below it, down to the spine
+        if on_head[b]:
+            head_borne[b] = True
+        if head_borne[b] and parent[b] >= 0 and not c.has_cap(int(parent[b]), "spine"):
+            head_borne[int(parent[b])] = True
     segs = [_rest_segment(c, b) for b in range(n)]
     order = [b for b in range(n) if owners[b][1] >= 0] + [b for b in range(n) if owners[b][1] < 0]
     slot = {b: k for k, b in enumerate(order)}
@@ -103,6 +125,7 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         ints += [s, i, d]
         floats += list(quat_rotate(qs, a0 - ps)) + list(quat_rotate(qs, a1 - ps))
         floats += [r, 0.5 * float(np.linalg.norm(a1 - a0)) + r]   # bounding radius about the middle
+        floats += [0.0 if head_borne[b] else 1.0]
     pairs = []
     pair_bodies = []
     allowed = []
@@ -119,17 +142,20 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
             b0, b1, rb = segs[b]
             if parent[a] == parent[b] and np.linalg.norm(c.body_rootrel_joint[a] - c.body_rootrel_joint[b]) < ra + rb:
                 continue          # siblings pivoting about one joint (a fork's toes, fingers): neighbours
+            allow = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1))
+            if parent[a] == parent[b] and allow > 0.0:
+                continue          # siblings built touching (a neck beside a shoulder): neighbours
             pairs.append((slot[a], slot[b]))
             pair_bodies.append((a, b))
-            allow = max(0.0, ra + rb - closest_distance(a0, a1, b0, b1))
             reach = floats[C.NF_PROX * slot[a] + 7] + floats[C.NF_PROX * slot[b] + 7] - allow
             allowed += [allow, max(reach, 0.0) ** 2]
     ints[2] = len(pairs)
     for p in pairs:
         ints += list(p)
-    # Goal section: per goal (own proxy slot, first entry, entries), then entries (pair,
-    # other slot, other goal or -1): the fixed proxies a limb goal body's position goal
-    # is settled against, and the other limb goals' bodies it is kept apart from.
+    # Goal section: per goal (own proxy slot, first entry, entries; entries -1 for a
+    # planted foot, which is never moved), then entries (pair, other slot, other goal or
+    # -1): the fixed proxies a limb goal body's position goal is settled against, and the
+    # other limb goals' bodies it is kept apart from.
     goal_of = {int(b): gi for gi, b in enumerate(goal_body) if goal_lp[gi] >= 0}
     ints[5] = len(ints)
     head = len(ints)
@@ -139,6 +165,9 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
         ints[head + 3 * gi] = slot[b]
         ints[head + 3 * gi + 1] = len(ints)
         if goal_lp[gi] < 0:
+            continue
+        if _planted(c, b):
+            ints[head + 3 * gi + 2] = -1      # never moved, and no goal is kept apart from it
             continue
         cnt = 0
         for p, (x, y) in enumerate(pair_bodies):
