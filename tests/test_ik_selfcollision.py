@@ -244,21 +244,34 @@ def _solve(c, goals, prm, rp, rr, gp):
     return pos.copy(), rot.copy()
 
 
+def _solve_settled(name, place):
+    """Solve the humanoid-like ``_settle_case`` with its four goals at rest except those
+    ``place(c, rest_pos, gp)`` moves: (creature, goal bodies, root pose, rest positions,
+    goal positions, goal weights, solved positions, settled goals)."""
+    from engine.ik.selfcollision import settled_goals
+
+    c, goals, rp, rr, rest_pos = _settle_case(name, ON)
+    gp = rest_pos.copy()
+    place(c, rest_pos, gp)
+    gw = np.zeros(c.nbody)
+    gw[goals] = 1.0
+    pos, rot = _solve(c, goals, ON, rp, rr, gp)
+    return c, goals, (rp, rr), rest_pos, gp, gw, pos, settled_goals(plan_for(c, goals, ON), gp, gw, pos, rot)
+
+
 def test_a_goal_inside_the_chest_is_settled_on_its_surface_and_met_there():
     """A hand goal at the middle of the chest cannot be met without entering it: the limb
     phase is asked for the chest's surface in front (plus the hand's radius), the other
     hand's goal next to it is kept a hand's width away, and both hands get there."""
     from engine.ik.selfcollision import capsule_of_box, settled_goals
 
-    c, goals, rp, rr, rest_pos = _settle_case("humanoid", ON)
+    def place(c, rest_pos, gp):
+        chest = c.body("spine3")
+        gp[c.body("hand_l")] = rest_pos[chest]
+        gp[c.body("hand_r")] = rest_pos[chest] + np.array([0.0, 0.0, 0.02])
+
+    c, goals, (rp, rr), rest_pos, gp, gw, pos, sg = _solve_settled("humanoid", place)
     chest, hl, hr = c.body("spine3"), c.body("hand_l"), c.body("hand_r")
-    gp = rest_pos.copy()
-    gp[hl] = rest_pos[chest]
-    gp[hr] = rest_pos[chest] + np.array([0.0, 0.0, 0.02])
-    gw = np.zeros(c.nbody)
-    gw[goals] = 1.0
-    pos, rot = _solve(c, goals, ON, rp, rr, gp)
-    sg = settled_goals(plan_for(c, goals, ON), gp, gw, pos, rot)
     r_chest = capsule_of_box(c.body_extent[chest])[2]
     r_hand = capsule_of_box(c.body_extent[hl])[2]
     for b in (hl, hr):
@@ -413,17 +426,13 @@ def test_a_planted_foot_is_never_settled():
     settling it out of a body would slide a planted foot (random creature 4246's crowded
     legs slid 7 mm in four grid cells). A foot goal inside the pelvis stays where it is; a
     hand goal at the same place is moved out."""
-    from engine.ik.selfcollision import settled_goals
+    def place(c, rest_pos, gp):
+        pelvis = c.body("pelvis")
+        gp[c.body("foot_l")] = rest_pos[pelvis]
+        gp[c.body("hand_l")] = rest_pos[pelvis] + np.array([0.0, 0.01, 0.0])
 
-    c, goals, rp, rr, rest_pos = _settle_case("humanoid", ON)
-    pelvis, hl, fl = c.body("pelvis"), c.body("hand_l"), c.body("foot_l")
-    gp = rest_pos.copy()
-    gp[fl] = rest_pos[pelvis]
-    gp[hl] = rest_pos[pelvis] + np.array([0.0, 0.01, 0.0])
-    gw = np.zeros(c.nbody)
-    gw[goals] = 1.0
-    pos, rot = _solve(c, goals, ON, rp, rr, gp)
-    sg = settled_goals(plan_for(c, goals, ON), gp, gw, pos, rot)
+    c, _, _, _, gp, _, _, sg = _solve_settled("humanoid", place)
+    hl, fl = c.body("hand_l"), c.body("foot_l")
     assert np.array_equal(sg[fl], gp[fl])
     assert np.linalg.norm(sg[hl] - gp[hl]) > 0.05
 
