@@ -1,5 +1,5 @@
 """Before-and-after pictures of the IK's self-collision (issue 16): for each creature, each
-animation is played with ``IKParams(self_collision=False)`` and with the default (on);
+animation is played with ``IKParams(self_collision=False)`` and with it on (``True``);
 both are shown at the frame where the off run's boxes go deepest into each other beyond
 the rest pose (the validation grid's ``self_intersection``), off on the left, on on the
 right, with the depth in the label.
