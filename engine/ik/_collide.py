@@ -461,15 +461,10 @@ def _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count):
     linear in the angle; the rounds of ``resolve`` iterate it). What the turn cannot
     give (a push along the line, or toward or away from it) is dropped: the goal wins.
     Marks the run's particles in ``count[:, 2]`` so the pass does not translate them;
-    ``count[:, 1]`` is scratch (children per particle)."""
+    ``count[:, 1]`` holds each particle's number of children (``begin``)."""
     nlp = lp_pos.shape[0]
     for i in range(nlp):
-        count[i, 1] = 0.0
         count[i, 2] = 0.0
-    for i in range(nlp):
-        p = lp_parent[i]
-        if p >= 0:
-            count[p, 1] += 1.0
     for e in range(nlp):
         if lp_inv[e] > 0.0:
             continue
@@ -523,8 +518,9 @@ def _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count):
 
 @njit(cache=True, _nrt=False, inline="always")
 def begin(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
-    """Once per solve, before the limb iterations: the movers' rest offsets and the fixed
-    proxies (the spine is posed and stays put in the limb phase)."""
+    """Once per solve, before the limb iterations: the movers' rest offsets, the fixed
+    proxies (the spine is posed and stays put in the limb phase) and each limb particle's
+    number of children (``_swivel_runs`` reads it from ``count[:, 1]``)."""
     cl_i = P.cl_i
     cl_f = P.cl_f
     nprox = cl_i[0]
@@ -534,6 +530,13 @@ def begin(P, scratch, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot):
         _prepare(P, cl_i, cl_f, k, work, out_rot)
     for k in range(nmove, nprox):   # fixed proxies: posed once
         _update(P, cl_i, cl_f, k, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_pos, out_rot)
+    nlp = lp_pos.shape[0]
+    count = work[W * nprox + nlp:W * nprox + 2 * nlp]
+    for i in range(nlp):
+        count[i, 1] = 0.0
+    for i in range(nlp):
+        if P.lp_parent[i] >= 0:
+            count[P.lp_parent[i], 1] += 1.0
 
 
 @njit(cache=True, _nrt=False, inline="always")

@@ -101,12 +101,9 @@ def build(c, has_ik, lp_body, lp_mode, lp_c1, lp_attach, enabled: bool, rounds: 
     # bodies that carry a head (a neck, the head itself and what rides on it): their pushes
     # go to the other side of a contact when that side yields (an arm)
     head_borne = [False] * n
-    on_head = [False] * n
     for b in range(n):                  # a head and what rides on it (jaw, eyes, ears)
-        on_head[b] = c.has_cap(b, "head") or (parent[b] >= 0 and on_head[int(parent[b])])
+        head_borne[b] = c.has_cap(b, "head") or (parent[b] >= 0 and head_borne[int(parent[b])])
     for b in range(n - 1, -1, -1):     # and the neck below it, down to the spine
-        if on_head[b]:
-            head_borne[b] = True
         if head_borne[b] and parent[b] >= 0 and not c.has_cap(int(parent[b]), "spine"):
             head_borne[int(parent[b])] = True
     segs = [_rest_segment(c, b) for b in range(n)]
