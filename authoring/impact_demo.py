@@ -5,7 +5,8 @@ in quick succession (hits in series), while a humanoid's punch lands on another 
 ``OUT/impacts_contact_sheet.png``, ``OUT/impacts.gif`` (pillow) and
 ``OUT/impacts_figure1.png``: the paper's Figure 1 (root height of Simulation 1, of the live
 simulation and of the displayed result, with the impact, the reaction delay and the
-hand-off marked; matplotlib).
+hand-off marked; matplotlib), with the same first hit answered the paper's way offline
+(``engine.response.paper``) in a second panel.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ def build(seconds: float):
     import engine
     from engine.response.impact import chain_mass
     from engine.response.library import library_for
+    from engine.response.paper import paper_response
     from engine.response.strike import Strike
 
     idle = engine.load_animation(os.path.join(os.path.dirname(LIBRARY_CREATURES), "animations",
@@ -69,7 +71,7 @@ def build(seconds: float):
     chars += [a, v]
     labels += ["attacker", "victim"]
     strike = Strike(a, v, ["hand_r", "forearm_r"])
-    state = {"t": 0.0, "punched": False, "first": None, "fig": None}
+    state = {"t": 0.0, "punched": False, "first": None, "fig": None, "paper": None}
 
     def step(dt):
         t0 = state["t"]
@@ -82,6 +84,10 @@ def build(seconds: float):
                     if c.name == "humanoid" and ch.response is not None and state["fig"] is None:
                         state["fig"] = _trace(ch.response)      # the first response, before the next hit
                     d = np.array([d[0], d[1], 0.0]) / np.hypot(*d)
+                    if c.name == "humanoid" and state["paper"] is None:
+                        # the same first hit answered as the paper wrote it, offline (Figure 1's
+                        # second panel): nothing of it is shown in the scene
+                        state["paper"] = paper_response(ch, b, d * speed * chain_mass(c, b))
                     ch.hit(b, d * speed * chain_mass(c, b))
                     if state["first"] is None and c.name == "humanoid":
                         state["first"] = ch.response
@@ -105,7 +111,10 @@ def _trace(resp):
             "delay": resp.params.reaction_delay, "name": resp.char.creature.name, "clip": clip}
 
 
-def _figure1(tr, out):
+def _figure1(tr, out, paper=None):
+    """The paper's Figure 1 for the live response ``tr`` (``_trace``) and, below it, for the
+    same hit answered the paper's way offline (``paper``: an ``engine.response.paper``
+    result), on one time axis."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -115,7 +124,23 @@ def _figure1(tr, out):
     z = np.array([r[2] for r in tr["root"]])
     phys = np.array([r[1] in ("burst", "transition") for r in tr["root"]])
     s1 = np.array(tr["sim1"]).reshape(-1, 2)
-    fig, ax = plt.subplots(figsize=(8, 4))
+    if paper is None:
+        fig, ax = plt.subplots(figsize=(8, 4))
+    else:
+        fig, (ax, bx) = plt.subplots(2, 1, figsize=(8, 7), sharex=True, sharey=True)
+        K = paper.sim2_pos.shape[0] - 1
+        bx.plot(paper.sim1_t, paper.sim1_pos[:, 0, 2], label="Simulation 1 (friction 1.0)", color="tab:blue")
+        bx.plot(paper.t[: K + 1], paper.sim2_pos[:, 0, 2], label="Simulation 2 (friction 0.5)", color="tab:green")
+        bx.plot(paper.t, paper.pos[:, 0, 2], label="final blend, then the clip", color="tab:red", lw=1, ls="--")
+        bx.axvline(0, color="k", lw=0.8, label="impact")
+        bx.axvline(tr["delay"], color="gray", ls=":", label="reaction delay")
+        bx.axvline(paper.handoff, color="purple", ls="-.", label="match (end of the blend)")
+        name = f"'{paper.clip.name}'" if paper.clip is not None else "its gait"
+        bx.set_title(f"the paper's way, offline ({paper.substep * 1e3:g} ms step): {name}, "
+                     f"{paper.seconds['total']:.2f} s to compute before the first frame", fontsize=9)
+        bx.set_xlabel("time after the impact (s)")
+        bx.set_ylabel("root height (m)")
+        bx.legend(fontsize=8)
     ax.plot(s1[:, 0], s1[:, 1], label="Simulation 1 (lookahead, friction 1.0)", color="tab:blue")
     ax.plot(t[phys], z[phys], ".", ms=3, label="Simulation 2 (live, friction 0.5)", color="tab:green")
     ax.plot(t, z, label="displayed (blended)", color="tab:red", lw=1, ls="--")
@@ -173,7 +198,7 @@ def run_impact_demo(headless: bool = True, out_dir: str = "out/demo", seconds: f
         print("menagerie impact demo: pillow is not installed (pip install -e '.[media]'): no GIF")
     fig = state["fig"] or (_trace(state["first"]) if state["first"] is not None else None)
     if fig is not None and fig["sim1"]:
-        _figure1(fig, os.path.join(out_dir, "impacts_figure1.png"))
+        _figure1(fig, os.path.join(out_dir, "impacts_figure1.png"), state["paper"])
     print(f"menagerie impact demo: wrote {out_dir}/impacts_contact_sheet.png, impacts.gif, impacts_figure1.png "
           f"in {time.perf_counter() - t0:.1f} s")
     return 0

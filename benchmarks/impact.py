@@ -2,7 +2,7 @@
 of random hits (one, two and five in series) on library and random creatures.
 
     .venv/bin/python benchmarks/impact.py [--library 6] [--skip 0] [--random 5] [--first-seed 0] [--hits 4]
-        [--seed 0] [--stand on|off|lookahead|live] [--lookahead-substep S]
+        [--seed 0] [--stand on|off|lookahead|live] [--lookahead-substep S] [--paper-hits 10]
 
 A response succeeds when the output stays finite, the character is back on animation
 (``reacting`` False) within 2 s after the last hit, the hand-off ticks (to physics, back
@@ -11,7 +11,9 @@ the ground, and for hits that move the root more than 2% of the height its groun
 displacement is within 60 degrees of the impulse. Hits: a random body, a horizontal
 direction, 0.2-2.5 m/s worth of the mass of the hit body's chain (``chain_mass``: its limb, or the
 whole creature for a spine body; a tap to a knock-down).
-Series: 2 and 5 hits 30-600 ms apart. Medians and p99 over all hits. Ends with one JSON
+Series: 2 and 5 hits 30-600 ms apart. Medians and p99 over all hits. ``paper_mode_s``: the
+median seconds of one response computed the paper's way, whole and ahead of display
+(``engine.response.paper``, 0.5 ms step), over ``--paper-hits`` random hits on the humanoid. Ends with one JSON
 line (keys as issue 13).
 """
 
@@ -36,6 +38,7 @@ from engine.physics.world import rotvec_between  # noqa: E402
 from engine.response import search as S  # noqa: E402
 from engine.response.impact import ImpactParams, ImpactResponse, chain_mass  # noqa: E402
 from engine.response.library import MotionLibrary, default_clips, library_for  # noqa: E402
+from engine.response.paper import PAPER_STEP  # noqa: E402
 from engine.runtime import Character  # noqa: E402
 
 DT = 1 / 60
@@ -131,6 +134,34 @@ def trial(creature, rng, nhits, stats, params=None):
     return (not why), "; ".join(why)
 
 
+def paper_trials(creature, rng, n, substep):
+    """``n`` random single hits (as ``trial`` draws them) answered the paper's way, offline
+    (``engine.response.paper``): per hit its stage times and whether the shown motion passes
+    the same checks as a live response's (finite, no body over 0.5 rad in a 60 Hz frame, no
+    body centre 1 cm under the ground, the root moving with the hit)."""
+    from engine.response.paper import paper_response
+
+    out = []
+    for _ in range(n):
+        ch = Character(creature)
+        ch.play(IDLE)
+        for _ in range(10):
+            ch.tick(DT)
+        d = rng.normal(size=2)
+        d /= np.linalg.norm(d)
+        b = int(rng.integers(creature.nbody))
+        J = np.array([d[0], d[1], 0.0]) * rng.uniform(0.2, 2.5) * chain_mass(creature, b)
+        r = paper_response(ch, b, J, substep=substep)
+        turn = float(np.linalg.norm(rotvec_between(r.rot[:-1].reshape(-1, 4), r.rot[1:].reshape(-1, 4)),
+                                    axis=1).max())
+        disp = r.pos[-1, 0, :2] - r.pos[0, 0, :2]
+        moved = np.linalg.norm(disp) > 0.02 * creature.height
+        along = (not moved) or float(disp @ J[:2]) / (np.linalg.norm(disp) * np.linalg.norm(J[:2])) > 0.5
+        ok = bool(np.all(np.isfinite(r.pos)) and turn <= 0.5 and r.pos[..., 2].min() > -0.01 and along)
+        out.append((r.seconds, ok, r.handoff))
+    return out
+
+
 def search_scaling(lib, feats):
     """Search ms (median of 5) on the humanoid's library cut or tiled to 1k, 10k, 100k frames."""
     out = {}
@@ -179,6 +210,8 @@ def main() -> None:
     ap.add_argument("--lookahead-substep", type=float, default=None,
                     help="Simulation 1's substep, s (ImpactParams.lookahead_substep; default 1/240): the "
                          "lookahead is most of the decision's time")
+    ap.add_argument("--paper-hits", type=int, default=10,
+                    help="random single hits on the humanoid answered the paper's way, offline (paper_mode_s)")
     ap.add_argument("--creatures", nargs="*", default=None,
                     help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
@@ -242,13 +275,33 @@ def main() -> None:
         t = time.perf_counter()
         S.search(lib, feats, 6, 30)
         ts.append(time.perf_counter() - t)
-    # recall of the coarse-to-fine search: the same window as scoring D on every culled one
+    # recall of the coarse-to-fine search: the same window as scoring D on every culled one,
+    # over hits on the trunk from four sides and three sizes (one hit, as until s38, read 0.0:
+    # a shove that leaves the humanoid near its held pose, where many windows are close and the
+    # prefilter's top PREFILTER_K missed idle_breathe for pick_fruit, D 0.0144 against 0.0171)
     same = []
-    for k0 in (6, 9, 12, 15):
-        a = S.search(lib, feats, k0, 30)
-        b = S.search(lib, feats, k0, 30, exhaustive=True)
-        same.append(a.distance <= b.distance * (1 + 1e-9))
+    for J in [(x * m, y * m, 0.0) for x, y in ((1, 0), (0, 1), (-1, 0), (0, -1)) for m in (30.0, 60.0, 150.0)]:
+        chr_ = Character(hum)
+        chr_.play(IDLE)
+        for _ in range(5):
+            chr_.tick(DT)
+        chr_.hit("spine2", J)
+        for _ in range(12):
+            chr_.tick(DT)
+        rr = chr_.response
+        ff = S.window_features(hum, rr._sim1_pos[: rr._sim1_count], rr._sim1_rot[: rr._sim1_count])
+        for k0 in (6, 12):
+            a = S.search(lib, ff, k0, 30)
+            b = S.search(lib, ff, k0, 30, exhaustive=True)
+            same.append(a.distance <= b.distance * (1 + 1e-9))
     scaling = search_scaling(lib, feats)
+    # the paper's pipeline, offline at its 0.5 ms step, on the humanoid (issue 13 item 6)
+    paper = paper_trials(hum, np.random.default_rng(args.seed + 2000), args.paper_hits, PAPER_STEP)
+    paper_s = {k: round(float(np.median([p[0][k] for p in paper])), 3) for k in paper[0][0]} if paper else {}
+    if paper:
+        print(f"paper mode (humanoid, {len(paper)} hits, step {PAPER_STEP * 1e3:g} ms): median seconds per response "
+              f"{paper_s}, success {np.mean([p[1] for p in paper]):.2f}, transition median "
+              f"{np.median([p[2] for p in paper]):.2f} s")
     # decision = Simulation 1 slices + search, per hit (the plan includes the search)
     nplan = len(stats["plan"])
     sim1 = np.array(stats["sim1"])
@@ -265,7 +318,10 @@ def main() -> None:
         success_rate=round(_stat(np.mean, results[1]), 3), train2_success_rate=round(_stat(np.mean, results[2]), 3),
         train5_success_rate=round(_stat(np.mean, results[5]), 3), creatures=len(creatures),
         hits=int(len(results[1]) + 2 * len(results[2]) + 5 * len(results[5])),
-        search_ms_by_library_frames=scaling, paper_mode_s=None, search_recall=round(float(np.mean(same)), 3),
+        search_ms_by_library_frames=scaling, paper_mode_s=paper_s.get("total"), paper_mode_stages_s=paper_s,
+        paper_mode_success_rate=round(float(np.mean([p[1] for p in paper])), 3) if paper else None,
+        paper_mode_vs_live_decision=(round(paper_s["total"] / float(np.median(hdec)), 1)
+                                     if paper and hdec else None), search_recall=round(float(np.mean(same)), 3),
         library_build_s=round(build_s, 2), library_load_s=round(load_s, 2),
         humanoid_decision_ms_median=round(1e3 * float(np.median(hdec)), 2),
         humanoid_decision_ms_p99=round(1e3 * float(np.percentile(hdec, 99)), 2),
