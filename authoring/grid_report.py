@@ -5,7 +5,7 @@ person looks at, and the command line:
 
     menagerie grid [--library] [--random N --first-seed S] [--creatures PATH...]
                    [--animations PATH...] [--variant ID] [--out DIR] [--scheduler ADDRESS]
-                   [--workers N] [--compare PREVIOUS.json] [--no-pictures] [--force]
+                   [--workers N] [--ik NAME=VALUE...] [--compare PREVIOUS.json] [--no-pictures] [--force]
 
 writes into DIR (default ``out/grid``):
 
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import html
 import io
 import json
@@ -459,6 +460,9 @@ def add_grid_parser(sub) -> None:
                                        "else a LocalCluster)")
     p.add_argument("--workers", type=int, default=None,
                    help="LocalCluster worker processes (default: one per core; 0 runs in this process)")
+    p.add_argument("--ik", nargs="+", default=[], metavar="NAME=VALUE",
+                   help="IK parameters for every character of the run (engine.ik.IKParams fields: "
+                        "--ik self_collision=true limb_outer=8)")
     p.add_argument("--compare", metavar="PREVIOUS.json", help="a previous grid.json to compare with")
     p.add_argument("--no-pictures", action="store_true", help="skip thumbnails, filmstrips and plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -514,6 +518,10 @@ def cmd_grid(args: argparse.Namespace) -> int:
             raise MenagerieError(f"{compare_path}: not a grid.json to compare with ({exc})") from None
     command = "menagerie grid " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["grid"] else "menagerie grid"
     task = G.cell_task if args.no_pictures else picture_task
+    if args.ik:
+        from engine.ik.plan import params_from_strings
+
+        task = functools.partial(G.ik_task, task, params_from_strings(args.ik))
     print(f"grid: {len(sources)} creatures x {len(paths)} animations -> {out}", file=sys.stderr)
     run = G.run_grid(sources, paths, task=task, workers=args.workers, scheduler=args.scheduler,
                      variant=args.variant, progress=not args.quiet)

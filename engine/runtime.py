@@ -47,7 +47,7 @@ from engine.anim.player import EventCallback, Player, PlayerArrays, PlayHandle, 
 from engine.anim.variants import Variant
 from engine.errors import MenagerieError
 from engine.gait import _step_kernels as SK
-from engine.ik.plan import DEFAULT_PARAMS, IKParams, plan_for
+from engine.ik.plan import IKParams, default_params, plan_for
 from engine.jiggle.rig import JiggleRig
 from engine.mathx import quat_mul_batch_into, quat_rotate_batch_into, quat_rotate_inv_into
 from engine.model.creature import Creature
@@ -181,14 +181,14 @@ class Character:
     """
 
     def __init__(self, creature: Creature, *, position=(0.0, 0.0, 0.0), heading: float = 0.0,
-                 nslot: int = 8, nlayer: int = 4, ik_params: IKParams = DEFAULT_PARAMS) -> None:
+                 nslot: int = 8, nlayer: int = 4, ik_params: IKParams | None = None) -> None:
         if not isinstance(creature, Creature):
             raise TypeError(f"Character needs a Creature, got {type(creature).__name__}")
         compiling.notice("runtime")   # once per process, when numba's cache is cold
         self.creature = creature
         self.stages = Stages()
         self.player = Player(nslot, nlayer)
-        self.ik_params = ik_params
+        self.ik_params = ik_params if ik_params is not None else default_params()
         self.jiggle_rig = JiggleRig.for_creature(creature)
         self._targets: dict[str, np.ndarray] = {}
         self._plan_key: int | None = None

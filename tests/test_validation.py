@@ -369,6 +369,47 @@ def test_grid_command_errors_name_the_fault(tmp_path):
     assert r.returncode == 2 and "bad.yaml" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_grid_ik_option_reaches_every_character_of_a_cell_and_its_reproduce_command(tmp_path):
+    # --ik sets IKParams for every character the cells make (the played, the scrubbed, the
+    # crowd's); the humanoid's hug with self-collision on keeps its forearms apart
+    def hug(*extra):
+        out = tmp_path / ("g" + "".join(extra).replace("=", "_"))
+        r = _menagerie("grid", "--creatures", "creatures/humanoid.yaml", "--animations", "animations/hug.yaml",
+                       "--out", str(out), "--workers", "0", "--quiet", "--no-pictures", *extra)
+        assert r.returncode == 0, r.stderr
+        (cell,) = json.loads((out / "grid.json").read_text())["cells"]
+        return cell
+
+    off, on = hug(), hug("--ik", "self_collision=true", "limb_outer=6")
+    assert "--ik" not in off["reproduce"] and "--ik self_collision=true --out" in on["reproduce"]
+    si_off, si_on = off["metrics"]["self_intersection"]["value"], on["metrics"]["self_intersection"]["value"]
+    assert si_on < 0.5 * si_off, (si_off, si_on)
+    r = _menagerie("grid", "--creatures", "creatures/humanoid.yaml", "--out", str(tmp_path / "x"),
+                   "--ik", "self_colision=true")
+    assert r.returncode == 2 and "self_colision" in r.stderr and "self_collision" in r.stderr
+    r = _menagerie("grid", "--creatures", "creatures/humanoid.yaml", "--out", str(tmp_path / "x"),
+                   "--ik", "limb_outer=0")
+    assert r.returncode == 2 and "limb_outer" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_ik_parameters_from_strings_and_back():
+    from engine.ik import DEFAULT_PARAMS, IKError, default_params, ik_defaults, params_from_strings, params_to_strings
+    from engine.model import build_creature, random_creature_def
+    from engine.runtime import Character
+
+    p = params_from_strings(["self_collision=on", "limb_outer=9", "soft_reach=0.9"])
+    assert (p.self_collision, p.limb_outer, p.soft_reach) == (True, 9, 0.9)
+    assert params_from_strings(params_to_strings(p)) == p and params_to_strings(DEFAULT_PARAMS) == []
+    for bad, field in (("limb_outer=x", "limb_outer"), ("ground=maybe", "ground"), ("nope=1", "nope"),
+                       ("limb_outer", "limb_outer"), ("soft_reach=2", "soft_reach")):
+        with pytest.raises(IKError, match=field):
+            params_from_strings([bad])
+    assert default_params() is DEFAULT_PARAMS
+    with ik_defaults(p):
+        assert default_params() is p and Character(build_creature(random_creature_def(3))).ik_params is p
+    assert default_params() is DEFAULT_PARAMS
+
+
 @pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is installed by setup.sh dev")
 def test_the_report_opens_in_a_real_browser_with_its_matrix_and_thumbnails(tmp_path):
     out = tmp_path / "grid"

@@ -15,9 +15,11 @@ parents for tools and tests.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import weakref
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -136,6 +138,69 @@ class IKParams:
 
 
 DEFAULT_PARAMS = IKParams()
+
+_DEFAULTS: contextvars.ContextVar = contextvars.ContextVar("menagerie_ik_params", default=None)
+
+
+def default_params() -> IKParams:
+    """The IKParams a ``Character`` made without ``ik_params`` gets: ``DEFAULT_PARAMS``, or
+    what the innermost ``ik_defaults`` block around it set."""
+    p = _DEFAULTS.get()
+    return DEFAULT_PARAMS if p is None else p
+
+
+@contextlib.contextmanager
+def ik_defaults(params: IKParams):
+    """Inside the block, characters made without ``ik_params`` solve with ``params`` (the
+    validation grid's ``--ik``: every character a cell makes, the scrubbed ones too)."""
+    if not isinstance(params, IKParams):
+        raise IKError(f"ik_defaults takes an IKParams, got {type(params).__name__}", field="params")
+    token = _DEFAULTS.set(params)
+    try:
+        yield params
+    finally:
+        _DEFAULTS.reset(token)
+
+
+def params_to_strings(params: IKParams, base: IKParams = DEFAULT_PARAMS) -> list[str]:
+    """The ``NAME=VALUE`` strings that make ``params`` from ``base`` (``params_from_strings``'s
+    inverse): what a grid cell's reproduce command passes as ``--ik``."""
+    out = []
+    for f in fields(IKParams):
+        v = getattr(params, f.name)
+        if v != getattr(base, f.name):
+            out.append(f"{f.name}={str(v).lower() if isinstance(v, bool) else repr(v)}")
+    return out
+
+
+def params_from_strings(items, base: IKParams = DEFAULT_PARAMS) -> IKParams:
+    """``base`` with fields set from ``NAME=VALUE`` strings (``self_collision=true``,
+    ``limb_outer=8``), as a command line gives them; an unknown name, a value of the wrong
+    kind or one ``IKParams`` refuses is an ``IKError`` naming the item."""
+    names = {f.name: f for f in fields(IKParams)}
+    changes = {}
+    for item in items:
+        name, sep, text = str(item).partition("=")
+        name, text = name.strip(), text.strip()
+        if not sep or name not in names:
+            raise IKError(f"'{item}': expected NAME=VALUE with NAME one of {', '.join(sorted(names))}",
+                          field=name or str(item))
+        cur = getattr(base, name)
+        try:
+            if isinstance(cur, bool):
+                if text.lower() not in ("true", "false", "1", "0", "on", "off", "yes", "no"):
+                    raise ValueError(text)
+                value = text.lower() in ("true", "1", "on", "yes")
+            elif isinstance(cur, int):
+                value = int(text)
+            else:
+                value = float(text)
+        except ValueError:
+            raise IKError(f"'{item}': {name} takes a {type(cur).__name__}, got '{text}'", field=name) from None
+        changes[name] = value
+    out = replace(base, **changes)
+    out.validate()
+    return out
 
 
 def _aim_via(lp, ag_pivot, ag_goal, goal_lp, goal_lpj, rr_rot) -> np.ndarray:

@@ -203,6 +203,15 @@ def cell_task(source: Source, paths: tuple[str, ...], variant: str | None = None
     return {"source": source, "cells": [_cell_json(r, source) for r in results], "seconds": seconds, "files": {}}
 
 
+def ik_task(task, ik, source: Source, paths: tuple[str, ...], variant: str | None = None) -> dict:
+    """``task`` with every character it makes solving with the IKParams ``ik`` (the grid's
+    ``--ik NAME=VALUE``; ``functools.partial(ik_task, task, ik)`` is a task too)."""
+    from engine.ik.plan import ik_defaults
+
+    with ik_defaults(ik):
+        return task(source, paths, variant)
+
+
 def _cell_json(result, source: Source) -> dict:
     d = result.to_json()
     d["source_kind"] = source.kind
@@ -218,6 +227,11 @@ def reproduce_command(source: Source, result) -> str:
         parts.append(f"--animations {result.animation_path}")
     if result.variant_id:
         parts.append(f"--variant {result.variant_id}")
+    from engine.ik.plan import default_params, params_to_strings
+
+    ik = params_to_strings(default_params())
+    if ik:
+        parts.append("--ik " + " ".join(ik))
     parts.append("--out out/grid-cell --force --workers 0")
     return " ".join(parts)
 
