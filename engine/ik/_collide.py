@@ -45,11 +45,18 @@ NF_PROX = 9      # floats per proxy
 W = 5            # work rows per proxy: capsule ends, their middle, a mover's two rest offsets
 MIN_DENOM = 0.25  # a contact next to a fixed limb root moves the bone at most 1/0.25 times its depth
 SKIN = 1.0       # depth (share of the thinner capsule's radius) over which a contact's push ramps in
-SWIVEL_REG = 0.5   # a limb's swivel counts its particles at least this share of its line's length off it
-                   # (0.15: random 4259's hold_platter arms turned 0.58 rad between two frames)
+SWIVEL_REG = 0.5   # a limb's swivel counts its particles at least this share of its length (along its
+                   # bones, root to held end) off its line (0.15: random 4259's hold_platter arms turned
+                   # 0.58 rad between two frames; of the line's length, a limb folded with its goal near
+                   # its root swivelled by a push over its short line: 0.75-0.87 rad a frame)
+CORE = 0.5         # share of the two radii's sum, closest axis to axis, inside which a push fades out
 SWIVEL_MAX = 0.3   # most a limb swivels in one round of ``resolve``, rad
 EXIT_FULL = 0.25   # an exit side weaker than this (share of a unit) leans a settled goal proportionally less
-SETTLE_CORE = 0.125  # share of a proxy's radius about the point where a settled goal has no way out
+SETTLE_CORE = 1.0   # share of a proxy's radius about the point where a settled goal has no way out: its
+                    # move fades out over this (0.125: a hand goal swept through the chest swung the arm
+                    # round it 1.7 rad in a step of 0.3% of the height; 1.0: 0.37)
+SETTLE_LEAN = 0.4   # share of a proxy's radius a settled goal leans toward its exit side (so a goal at the
+                    # middle of a body is as far from that point as SETTLE_CORE fades, and is settled out)
 
 
 @njit(cache=True, _nrt=False)
@@ -363,6 +370,15 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
             pen = pen * pen / (2.0 * band)
         else:
             pen -= 0.5 * band
+        # deep inside, where the two axes come close to crossing, the push fades out: its
+        # direction (closest point to closest point) turns over as the axes cross, and a
+        # full push there snapped a limb through the other body in one frame
+        core = CORE * (cl_f[fa + 6] + cl_f[fb + 6])
+        if dist < core:
+            x = dist / core
+            pen *= x * x * (3.0 - 2.0 * x)
+            if pen <= 0.0:
+                continue
         if dist > 1e-9:
             n = _scale(d, 1.0 / dist)
         else:  # axes crossing: push across both
@@ -485,9 +501,13 @@ def _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count):
         la = math.sqrt(_dot(ax, ax))
         num = 0.0
         den = 0.0
+        d = _sub(_v3(lp_pos, e), _v3(lp_pos, p))
+        length = math.sqrt(_dot(d, d))    # the limb's length from a to e along its bones
         j = p
         while True:
             count[j, 2] = 1.0
+            d = _sub(_v3(lp_pos, j), _v3(lp_pos, lp_parent[j]))
+            length += math.sqrt(_dot(d, d))
             if la > EPS:
                 r = _sub(_v3(lp_pos, j), pa)
                 rp = _sub(r, _scale(ax, _dot(r, ax) / (la * la)))
@@ -503,7 +523,7 @@ def _swivel_runs(lp_parent, lp_pos, lp_inv, delta, count):
         # denominator keeps SWIVEL_REG of the line's length squared, so a run near the
         # line turns little instead of spinning by a push / (its distance from the line),
         # and one round turns at most SWIVEL_MAX (smoothly saturated)
-        theta = num / (den + SWIVEL_REG * SWIVEL_REG * la * la)
+        theta = num / (den + SWIVEL_REG * SWIVEL_REG * length * length)
         theta = SWIVEL_MAX * math.tanh(theta / SWIVEL_MAX)
         h = 0.5 * theta
         sh = math.sin(h) / la
@@ -711,22 +731,26 @@ def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
                 if m <= 0.0:
                     continue
                 # out from the axis point to distance dist + m, along the offset leaned
-                # toward the exit side by a quarter radius (defined on the axis itself)
+                # toward the exit side by SETTLE_LEAN of the radius (defined on the axis itself)
                 # (the lean grows with the move from 0: none at the band's outer edge)
-                lean = 0.25 * rk * min(m / band, 1.0)
+                lean = SETTLE_LEAN * rk * min(m / band, 1.0)
                 n = _add(d, _scale(_exit_side(P, gi, q, ax, aa, out_pos, out_rot), lean))
                 nn = math.sqrt(_dot(n, n))
                 # n vanishes where the offset from the axis cancels the lean (a goal a lean
                 # from the axis on the side opposite the exit): no direction out is right
                 # there, so the move fades to nothing within SETTLE_CORE of the proxy's
-                # radius of that point instead of turning over as the goal passes it
+                # radius of that point instead of turning over as the goal passes it. The
+                # move itself fades (goal to its place out), not only its length: a goal
+                # set at its own distance along n turned over with n (a hand goal swept
+                # through the humanoid's chest jumped 10 cm for 0.4 mm, the arm 1.7 rad)
+                if nn < EPS or m <= 0.0:
+                    continue
+                out = _add(q, _scale(n, (dist + m) / nn))
                 core = SETTLE_CORE * rk
                 if nn < core:
                     x = nn / core
-                    m *= x * x * (3.0 - 2.0 * x)
-                if nn < EPS or m <= 0.0:
-                    continue
-                g = _add(q, _scale(n, (dist + m) / nn))
+                    out = _add(g, _scale(_sub(out, g), x * x * (3.0 - 2.0 * x)))
+                g = out
             _set3(moved, b, g)
         # limb goal bodies apart (each pair once: the lower goal index does it; never a
         # planted foot's, entries -1: ``selfcollision._planted``)
