@@ -46,7 +46,7 @@ from engine.validation import thresholds as T
 THUMB = 64            # thumbnail side, px
 FILM = 150            # filmstrip frame side, px
 PLOTTED = 4           # failing metrics plotted per cell page
-#: Failing cells of one creature that get a filmstrip and plots (its six worst): a
+#: Failing cells of one creature that get a filmstrip and plots (its flips, and its worst up to six): a
 #: matplotlib figure costs ~0.1-0.3 s, and a creature whose every cell fails should not
 #: cost a minute of pictures; the other failing cells' pages carry the numbers and the
 #: command that reproduces them.
@@ -164,7 +164,11 @@ def picture_task(source: G.Source, paths: tuple[str, ...], variant: str | None =
         # filmstrips and plots of the worst failing cells
         failing = sorted((k for k, (res, cell) in enumerate(zip(results, cells, strict=True))
                           if res.status == T.FAIL and "film" in res.poses), key=lambda k: -G.severity(cells[k]))
-        for k in failing[:PICTURED]:
+        # every flip, then the worst of the rest up to PICTURED (random 4247's pound_ground
+        # flip ranked seventh behind six boxes overlapping and had no pictures)
+        flips = [k for k in failing if G.is_flip(cells[k])]
+        pictured = flips + [k for k in failing if k not in flips][:max(PICTURED - len(flips), 0)]
+        for k in pictured:
             res, cell = results[k], cells[k]
             cid = cell_id(cell)
             frames = res.poses["film"]

@@ -382,15 +382,22 @@ def severity(cell: dict) -> float:
     return float(w["value"]) / t.fail if t is not None and t.fail else 0.0
 
 
+POPS = ("rotation_pop", "start_pop", "end_pop")
+
+
+def is_flip(cell: dict) -> bool:
+    """A body turned past the fail line in one frame (mid-clip, fading in or out): the
+    summary's ``flips``."""
+    return any(_metric_value(cell, m) > T.BY_METRIC[m].fail for m in POPS)
+
+
 def summarize(cells: list[dict], seconds: float = 0.0) -> dict:
     """The summary object of ``grid.json``."""
     n = len(cells)
     na = sum(c["status"] == T.NA for c in cells)
     counts = {s: sum(c["status"] == s for c in cells) for s in (T.PASS, T.WARN, T.FAIL)}
     plays = n - na
-    flips = [c for c in cells if _metric_value(c, "rotation_pop") > T.BY_METRIC["rotation_pop"].fail
-             or _metric_value(c, "start_pop") > T.BY_METRIC["start_pop"].fail
-             or _metric_value(c, "end_pop") > T.BY_METRIC["end_pop"].fail]
+    flips = [c for c in cells if is_flip(c)]
     nonfinite = [c for c in cells if "finite" in c.get("metrics", {}) or "non-finite" in c.get("reason", "")]
     failing = sorted((c for c in cells if c["status"] == T.FAIL), key=severity, reverse=True)
     known = [c for c in failing if c.get("known") and all(
