@@ -419,3 +419,25 @@ def test_a_fall_goes_on_into_the_clips_that_follow_it():
     assert found.startswith("fall_"), found
     side = found[len("fall_"):]
     assert queued == [f"lie_{side}", f"get_up_{side}", "idle_breathe"], queued
+
+
+def test_a_creature_lying_on_its_belly_is_not_balanced_and_does_not_thrash():
+    """The standing controller keeps an inverted pendulum up: a creature standing on feet.
+    The snake lies on its belly; the controller's balance wrench on its head segment (at the
+    frequencies a 7.5 cm creature gets) thrashed the chain at 2.3-3.1 rad a tick after a
+    side hit. It runs only for creatures on feet now (``Stander.on_feet``): 0.03 rad."""
+    from engine.response.impact import ImpactResponse
+
+    ch = _standing("snake")
+    assert ch.creature.has_body("body10")
+    ch.hit("body10", (-6.55, -1.23, 0.0))          # 0.85 m/s worth of the whole snake
+    assert ch.response.stand1 is None and ch.response.stand2 is None
+    prev, worst = ch.world_rotations.copy(), 0.0
+    for _ in range(40):
+        ch.tick(DT)
+        if ch.reacting and ch.response.phase in ("burst", "transition"):
+            worst = max(worst, float(np.linalg.norm(rotvec_between(prev, ch.world_rotations), axis=1).max()))
+        prev = ch.world_rotations.copy()
+    assert worst < 0.5, worst
+    hum = ImpactResponse(_standing("humanoid"))
+    assert hum.stand1 is not None and hum.stand1.on_feet

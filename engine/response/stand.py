@@ -84,9 +84,14 @@ class Stander:
         # body tipping on its feet falls at sqrt(g / L), and 2 Hz held a human but not a 15 cm creature
         self.hz_scale = math.sqrt(max(p.ref_height / max(self.height, 1e-6), 1.0)) if p.ref_height > 0 else 1.0
         wc, wr = 2 * math.pi * p.com_hz * self.hz_scale, 2 * math.pi * p.root_hz * self.hz_scale
-        self.rest_lean = _rest_lean(model, self.body_foot, p.tol * self.height)
+        self.rest_lean, self.on_feet = _rest_lean(model, self.body_foot, p.tol * self.height)
         self.gains = np.array([wc * wc, 2 * p.com_zeta * wc, wr * wr, 2 * p.root_zeta * wr, p.tol * self.height, 1.0,
                                1.0 if p.carry else 0.0, p.lean_margin * self.rest_lean])
+        #: the rest pose stands on feet: an inverted pendulum the controller keeps up. A creature
+        #: lying on its belly (a snake, an inchworm, an octopus) or hovering is not one, and the
+        #: response runs without the controller for it (``ImpactResponse``): its balance wrench on
+        #: a snake's head segment, at the frequencies a 7.5 cm creature gets, thrashed the chain
+        #: at up to 3.1 rad a tick
         self.ref = np.zeros(7)
         self.scratch = np.zeros((n, 8))
         self.support = np.zeros((n, 4))
@@ -112,13 +117,13 @@ class Stander:
         return int(self.out[0])
 
 
-def _rest_lean(model: PhysicsModel, body_foot: np.ndarray, tol: float) -> float:
+def _rest_lean(model: PhysicsModel, body_foot: np.ndarray, tol: float) -> tuple[float, bool]:
     """Ground-plane distance (m) from the rest pose's supports' centre (the foot bodies with a
     feature within ``tol`` of the lowest one; every body's when no foot is that low) to its
-    centre of mass."""
+    centre of mass, and whether those supports are feet (``Stander.on_feet``)."""
     fb = np.asarray(model.feat_body, dtype=np.int64)
     if fb.size == 0:
-        return 0.0
+        return 0.0, False
     pos = np.asarray(model.body_rest_pos, float)
     rot = np.asarray(model.body_rest_rot, float)
     loc = np.asarray(model.feat_local, float)
@@ -134,7 +139,7 @@ def _rest_lean(model: PhysicsModel, body_foot: np.ndarray, tol: float) -> float:
     centre = np.array([pts[pick & (fb == b), :2].mean(axis=0) for b in bodies]).mean(axis=0)
     mass = np.asarray(model.body_mass, float)
     com = (mass[:, None] * pos[:, :2]).sum(axis=0) / mass.sum()
-    return float(np.linalg.norm(com - centre))
+    return float(np.linalg.norm(com - centre)), bool(on_foot.any())
 
 
 __all__ = ["StandParams", "Stander"]
