@@ -1,7 +1,7 @@
 """Impact response: search and decision time, per-tick cost during a response, success
 of random hits (one, two and five in series) on library and random creatures.
 
-    .venv/bin/python benchmarks/impact.py [--library 6] [--skip 0] [--random 5] [--first-seed 0] [--hits 4]
+    .venv/bin/python benchmarks/impact.py [--library 6] [--skip 0] [--spread N] [--random 5] [--first-seed 0] [--hits 4]
         [--seed 0] [--stand on|off|lookahead|live] [--lookahead-substep S] [--paper-hits 10]
 
 A response succeeds when the output stays finite, the character is back on animation
@@ -214,13 +214,20 @@ def main() -> None:
     ap.add_argument("--lookahead-substep", type=float, default=None,
                     help="Simulation 1's substep, s (ImpactParams.lookahead_substep; default 1/240): the "
                          "lookahead is most of the decision's time")
+    ap.add_argument("--spread", type=int, default=0, metavar="N",
+                    help="N library creatures spread evenly over the library by name (instead of --library/--skip)")
     ap.add_argument("--paper-hits", type=int, default=10,
                     help="random single hits on the humanoid answered the paper's way, offline (paper_mode_s)")
     ap.add_argument("--creatures", nargs="*", default=None,
                     help="library creature names instead of the first --library N (random ones still by --random)")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
-    paths = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))[args.skip: args.skip + args.library]
+    every = sorted(glob.glob(os.path.join(ROOT, "creatures", "*.yaml")))
+    paths = every[args.skip: args.skip + args.library]
+    if args.spread:
+        # evenly over the whole library by name, not its first creatures (the snake, the
+        # octopus and the spider sat past every set the first-N form made, s38)
+        paths = [every[int(k)] for k in np.unique(np.linspace(0, len(every) - 1, min(args.spread, len(every))).round())]
     if args.creatures is not None:
         paths = [os.path.join(ROOT, "creatures", f"{n}.yaml") for n in args.creatures]
     params = {"on": None, "off": ImpactParams(stand=None),
