@@ -372,22 +372,15 @@ def _push_pairs(P, cl_i, cl_f, work, goal_rot, goal_rot_w, lp_pos, lp_rest, out_
             pen -= 0.5 * band
         # deep inside, where the two axes come close to crossing, the push fades out: its
         # direction (closest point to closest point) turns over as the axes cross, and a
-        # full push there snapped a limb through the other body in one frame
+        # full push there snapped a limb through the other body in one frame (so two
+        # crossing axes, with no direction between them, are not pushed at all)
+        if dist <= 1e-9:
+            continue
         core = CORE * (cl_f[fa + 6] + cl_f[fb + 6])
         if dist < core:
             x = dist / core
             pen *= x * x * (3.0 - 2.0 * x)
-            if pen <= 0.0:
-                continue
-        if dist > 1e-9:
-            n = _scale(d, 1.0 / dist)
-        else:  # axes crossing: push across both
-            n = _cross(_sub(a1, a0), _sub(b1, b0))
-            if _dot(n, n) < EPS:
-                n = _cross(_sub(a1, a0), (0.0, 0.0, 1.0))
-                if _dot(n, n) < EPS:
-                    n = (1.0, 0.0, 0.0)
-            n = _scale(n, 1.0 / math.sqrt(_dot(n, n)))
+        n = _scale(d, 1.0 / dist)
         ha = NI_HEAD + NI_PROX * ka
         hb = NI_HEAD + NI_PROX * kb
         ia, ca = cl_i[ha + 1], cl_i[ha + 2]
@@ -743,7 +736,7 @@ def settle_goals(P, scratch, goal_pos, goal_pos_w, goal_joint, out_pos, out_rot)
                 # move itself fades (goal to its place out), not only its length: a goal
                 # set at its own distance along n turned over with n (a hand goal swept
                 # through the humanoid's chest jumped 10 cm for 0.4 mm, the arm 1.7 rad)
-                if nn < EPS or m <= 0.0:
+                if nn < EPS:
                     continue
                 out = _add(q, _scale(n, (dist + m) / nn))
                 core = SETTLE_CORE * rk

@@ -583,9 +583,7 @@ class ImpactResponse:
             return
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
-        g = self.char.gait
-        moving = g is not None and (bool(np.any(np.abs(g._cmd_v) > 1e-6)) or abs(g._cmd_w) > 1e-6)
-        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=moving)
+        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=self.locomoting())
         self.match = res
         self.entry = self.library.entries[res.clip]
         self.clip = self.entry.animation
@@ -596,6 +594,12 @@ class ImpactResponse:
         self.phase = "transition"
         if self.time + self._frame_dt * 0 >= self._handoff - 1e-9:
             self._arm(0.0)
+
+    def locomoting(self) -> bool:
+        """The character's gait is moving or turning: only then may the search re-enter a
+        gait cycle."""
+        g = self.char.gait
+        return g is not None and (bool(np.any(np.abs(g._cmd_v) > 1e-6)) or abs(g._cmd_w) > 1e-6)
 
     def _is_tap(self) -> bool:
         """Simulation 1 keeps the root within ``tap_move`` of the creature's height of where it

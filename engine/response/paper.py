@@ -98,7 +98,6 @@ def paper_response(char, body, impulse, point=None, duration: float = 0.0, *,
     lib = r.library                       # built (or loaded) before the clock starts: a game has it
     r.hit(body, impulse, point, duration)
     start = r.sim2.copy()                 # Simulation 2 starts where Simulation 1 does
-    contacts = [list(e) for e in r._contact]
     c = char.creature
     fdt = r._frame_dt
 
@@ -114,17 +113,14 @@ def paper_response(char, body, impulse, point=None, duration: float = 0.0, *,
     k1 = min(max(k0, int(p.match_max / fdt + 1e-9)), last)
     k0 = min(k0, k1)
     feats = window_features(c, r._sim1_pos[: r._sim1_count], r._sim1_rot[: r._sim1_count])
-    g = char.gait
-    moving = g is not None and (bool(np.any(np.abs(g._cmd_v) > 1e-6)) or abs(g._cmd_w) > 1e-6)
-    res = search(lib, feats, k0, k1, allow_gait=moving, exhaustive=True)
+    res = search(lib, feats, k0, k1, allow_gait=r.locomoting(), exhaustive=True)
     t2 = time.perf_counter()
 
     # 3. Simulation 2 from the impact to the match time T
     T = res.sim_frame * fdt
     K = max(int(round(T * rate)), 1)
     dt = T / K
-    r.sim2 = start
-    r._contact = contacts
+    r.sim2 = start                        # (Simulation 1 kept its own copy of the contact: r._contact is whole)
     r.match = res
     r.entry = lib.entries[res.clip]
     r._handoff = T
