@@ -18,11 +18,11 @@ import pytest
 
 import engine
 from engine.ik.testing import mini_creature
-from engine.mathx import quat_from_axis_angle, quat_mul
+from engine.mathx import quat_from_axis_angle, quat_mul, quat_rotate
 from engine.validation import thresholds as T
 from engine.validation.cell import CellContext, run_cell, run_creature
 from engine.validation.consistency import mirror_difference, path_independence
-from engine.validation.continuity import continuity
+from engine.validation.continuity import bone_axis, continuity
 from engine.validation.goals import goal_error
 from engine.validation.ground import ground
 from engine.validation.limits import ik_limits
@@ -84,6 +84,23 @@ def test_a_body_flipped_on_purpose_is_a_rotation_pop_at_that_frame_and_body(mini
     assert m.value == pytest.approx(1.2, abs=1e-9)
     assert (m.body, m.frame) == ("head", 12)
     assert m.detail["class"] == "ik" and T.verdict("rotation_pop", m.value) == T.FAIL
+
+
+@pytest.mark.parametrize("twisted", [True, False])
+def test_a_pop_is_split_into_the_swing_of_the_bone_and_the_twist_about_it(mini, twisted):
+    """A body spun 1.2 rad about its own long axis is all twist; turned 1.2 rad about an
+    axis across it, all swing; the two add up to the turn for a turn about either."""
+    rec, ctx = still(mini), CellContext.for_creature(mini)
+    head = mini.body("head")
+    q = mini.body_rest_rot[head]
+    axis = bone_axis(mini, head)
+    across = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
+    local = axis if twisted else across / np.linalg.norm(across)
+    rec.world_rot[12:, head] = turn(q, quat_rotate(q, local), 1.2)
+    m = measures(continuity, rec, ctx)["rotation_pop"]
+    assert m.value == pytest.approx(1.2, abs=1e-9) and m.body == "head"
+    assert m.detail["twist" if twisted else "swing"] == pytest.approx(1.2, abs=1e-9)
+    assert m.detail["swing" if twisted else "twist"] == pytest.approx(0.0, abs=1e-9)
 
 
 def test_a_turn_the_goal_asks_for_is_not_a_pop(mini):

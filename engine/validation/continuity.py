@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from engine.mathx import quat_conj, quat_mul, quat_rotate
 from engine.model.caps import DETAIL, EAR, EYE, SPIKE
 from engine.validation import _kernels as K
 from engine.validation.measure import Measure, worst
@@ -74,7 +75,7 @@ def continuity(rec, ctx) -> list[Measure]:
     cls = body_classes(c, rec.driven[1:])
     # step i -> i+1 is reported at frame i+1 (the frame that shows it)
     out = []
-    out.append(_pop("rotation_pop", excess, turn, asked, cls, c, t, 0))
+    out.append(_pop("rotation_pop", excess, turn, asked, cls, c, t, 0, rec.world_rot))
     out.append(worst("position_pop", excess_move, "size/frame", names, t, frame_offset=1))
 
     speed = worst("angular_speed", turn / dt, "rad/s", names, t, frame_offset=1)
@@ -102,11 +103,11 @@ def continuity(rec, ctx) -> list[Measure]:
     # the ends of the clip
     lead = int(round((rec.fade + 0.1) / dt))
     k0 = min(lead, len(excess))
-    m = _pop("start_pop", excess[:k0], turn[:k0], asked[:k0], cls[:k0], c, t, 0)
+    m = _pop("start_pop", excess[:k0], turn[:k0], asked[:k0], cls[:k0], c, t, 0, rec.world_rot)
     m.series = None
     out.append(m)
     e0 = max(rec.end_frame - lead - 1, 0)
-    m = _pop("end_pop", excess[e0:], turn[e0:], asked[e0:], cls[e0:], c, t, e0)
+    m = _pop("end_pop", excess[e0:], turn[e0:], asked[e0:], cls[e0:], c, t, e0, rec.world_rot)
     m.series = None
     out.append(m)
 
@@ -120,14 +121,18 @@ def continuity(rec, ctx) -> list[Measure]:
     return out
 
 
-def _pop(name, excess, turn, asked, cls, c, t, offset) -> Measure:
-    """The worst excess turn as a Measure, with its turn, what was asked, the class of the
-    body, its parent's turn in that frame and the worst excess per body class."""
+def _pop(name, excess, turn, asked, cls, c, t, offset, world_rot) -> Measure:
+    """The worst excess turn as a Measure, with its turn (split into the swing of the
+    body's long axis and the twist about it), what was asked, the class of the body, its
+    parent's turn in that frame and the worst excess per body class."""
     m = worst(name, excess, "rad/frame", c.body_names, t, frame_offset=offset + 1)
     if excess.size:
         i, b = divmod(int(np.argmax(excess)), excess.shape[1])
         p = int(c.body_parent[b])
         m.detail["turn"] = float(turn[i, b])
+        swing, twist = swing_twist(world_rot[offset + i, b], world_rot[offset + i + 1, b], bone_axis(c, b))
+        m.detail["swing"] = swing
+        m.detail["twist"] = twist
         m.detail["asked"] = float(asked[i, b])
         m.detail["class"] = CLASS_NAMES[int(cls[i, b])]
         m.detail["parent_turn"] = float(turn[i, p]) if p >= 0 else 0.0
@@ -135,6 +140,47 @@ def _pop(name, excess, turn, asked, cls, c, t, offset) -> Measure:
             sel = cls == k
             m.detail[f"{cname}_max"] = float(excess[sel].max()) if sel.any() else 0.0
     return m
+
+
+def bone_axis(c, b: int) -> np.ndarray:
+    """Unit axis of body ``b`` in its own frame along which a turn is a swing: from its
+    joint to its origin (along the bone) where the box sits off its joint, else its box's
+    longest axis."""
+    off = np.asarray(c.body_joint_offset[b], float)
+    ext = np.asarray(c.body_extent[b], float)
+    n = float(np.linalg.norm(off))
+    if n > 0.25 * float(ext.max()):
+        return off / n
+    a = np.zeros(3)
+    a[int(np.argmax(ext))] = 1.0
+    return a
+
+
+def swing_twist(q0, q1, axis) -> tuple[float, float]:
+    """(swing, twist) in radians of the turn from ``q0`` to ``q1`` (w-first, world): how
+    far the body's ``axis`` (a unit vector in its frame, ``bone_axis``) swings, and how far
+    the body then turns about it. A flip that is mostly twist is the orientation rebuild
+    spinning a body about a bone that hardly moved (a twist reference's singular
+    direction); mostly swing, the bones themselves jumped (the particles took another
+    solution)."""
+    a = np.asarray(axis, float)
+    u0 = quat_rotate(np.asarray(q0, float), a)
+    u1 = quat_rotate(np.asarray(q1, float), a)
+    swing = float(np.arctan2(np.linalg.norm(np.cross(u0, u1)), float(np.dot(u0, u1))))
+    d = quat_mul(np.asarray(q1, float), quat_conj(np.asarray(q0, float)))   # world turn q0 -> q1
+    # what is left after the shortest arc u0 -> u1 is a turn about u0
+    n = np.cross(u0, u1)
+    s = np.linalg.norm(n)
+    if s > 1e-12:
+        h = 0.5 * swing
+        arc = np.r_[np.cos(h), np.sin(h) * n / s]
+    elif float(np.dot(u0, u1)) > 0.0:
+        arc = np.array([1.0, 0.0, 0.0, 0.0])
+    else:   # axis reversed: any half turn across it; the twist is then measured about it
+        return swing, 0.0
+    r = quat_mul(quat_conj(arc), d)
+    twist = float(2.0 * np.arctan2(abs(float(np.dot(r[1:], u0))), abs(float(r[0]))))
+    return swing, twist
 
 
 def _carry_max(c, per_body: np.ndarray) -> np.ndarray:
