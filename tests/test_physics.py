@@ -819,3 +819,62 @@ def test_tree_block_inverse_against_numpy(d, sign):
         out = np.zeros((6, 6))
         _invert_sym_into(A, d, out, np.zeros((6, 12)))
         np.testing.assert_allclose(out[:d, :d], np.linalg.inv(A[:d, :d]), rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("servos", [False, True])
+def test_tree_schur_update_against_the_dense_edge_blocks(servos):
+    """The factorization's L = D^-1 H and D_parent -= H^T L, written out for H's
+    non-zeros, against dense H (the constraint Jacobian blocks) on the humanoid's tree in
+    a turned pose: ball joints, and joints with direct servos (6-row nodes)."""
+    from numba import njit
+
+    from engine.physics import _kernels as K
+
+    c = engine.load_creature(LIBRARY[[os.path.basename(p) for p in LIBRARY].index("humanoid.yaml")])
+    model = model_from_creatures([c])
+    state = PhysicsState(model)
+    rng = np.random.default_rng(4)
+    for b in range(model.nbody):
+        q = rng.normal(size=4)
+        state.body_rot[b] = q / np.linalg.norm(q)
+    if servos:
+        state.joint_pd_hz[:] = 5.0
+        state.joint_pd_max_torque[:] = 0.0
+    m, s = model.arrays, state.arrays
+    njit(lambda m, s, h: K._prepare(m, s, h))(m, s, DT)
+    nb = model.nbody
+
+    def skew(r):
+        return np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+
+    run = njit(lambda m, s, i, d, p, dp, Di, L, Dp: K._schur_up(m, s, i, d, p, dp, Di, L, Dp))
+    checked = 0
+    for i in range(len(m.node_parent)):
+        p = int(m.node_parent[i])
+        if p < 0:
+            continue
+        d, dp = int(s.node_dim[i]), int(s.node_dim[p])
+        H = np.zeros((6, 6))
+        if i < nb:
+            j = int(m.body_joint[i])
+            H[:3, :3] = np.eye(3)
+            H[3:, :3] = skew(s.joint_rb[j])
+            if dp == 6:
+                H[3:, 3:] = np.eye(3)
+        else:
+            j = i - nb
+            H[:3, :3] = -np.eye(3)
+            H[:3, 3:] = skew(s.joint_ra[j])
+            if d == 6:
+                H[3:, 3:] = -np.eye(3)
+        Di = rng.normal(size=(6, 6))
+        Dp = rng.normal(size=(6, 6))
+        L = np.zeros((6, 6))
+        want_L = Di[:d, :d] @ H[:d, :dp]
+        want_Dp = Dp.copy()
+        want_Dp[:dp, :dp] -= H[:d, :dp].T @ want_L
+        run(m, s, i, d, p, dp, Di, L, Dp)
+        np.testing.assert_allclose(L[:d, :dp], want_L, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(Dp, want_Dp, rtol=1e-12, atol=1e-12)
+        checked += d == 6 and dp == 6
+    assert (checked > 0) == servos   # servo joints make 6-row nodes below 6-row bodies
