@@ -89,3 +89,46 @@ def test_random_creatures_goals_fade_continuously(seed, animation):
         return       # the clip declines this creature (no graspers, say)
     turn = _turn_under_scaled_weights(c, frame, 1.0 - 1e-3)
     assert turn < STEP_1E3, f"random {seed} {animation}: {turn:.3f} rad for weights x 0.999"
+
+
+def _turn_as_goals_appear(creature, frame, extra, eps: float) -> float:
+    """Largest turn of an IK body between the frame's goals with the ``extra`` bodies'
+    goals at weight 0 and at weight ``eps`` (same plan: the bodies are goal bodies both
+    times)."""
+    rp, rr, gp, gr, pw, rw = frame
+    bodies = sorted({int(b) for b in np.nonzero((pw > 0) | (rw > 0))[0]} | set(extra))
+    solver = IKSolver(creature, bodies)
+
+    def solve(w):
+        solver.goals.clear()
+        for b in bodies:
+            if b in extra:
+                solver.goals.set(b, pos=gp[b] if pw[b] > 0 else creature.body_rest_pos[b] + rp,
+                                 rot=creature.body_rest_rot[b], pos_weight=w, rot_weight=w)
+            else:
+                solver.goals.set(b, pos=gp[b], rot=gr[b], pos_weight=pw[b], rot_weight=rw[b])
+        solver.solve(rp, rr)
+        return solver.out_rot[solver.plan.ik_bodies].copy()
+
+    a, b = solve(0.0), solve(eps)
+    assert np.all(np.isfinite(b))
+    return float(np.max(2.0 * np.arccos(np.clip(np.abs(np.sum(a * b, axis=1)), 0.0, 1.0))))
+
+
+@pytest.mark.parametrize("name,animation", [
+    ("random_4259", "hold_platter"),   # the case that found it: idle's spine goals fading in
+    ("random_4252", "pick_fruit"),
+    ("humanoid", "hold_platter"),
+])
+def test_goals_fading_in_from_zero_move_the_pose_a_little(name, animation):
+    """The other end of a crossfade: a clip fading in (idle_breathe after a one-shot) puts
+    goals on spine bodies at weight 0.009 in its first frame. A spine body's goal is a
+    delegated one, and the swing toward it was a weighted mean, the same for any weight
+    above zero: random 4259's chest turned 1.9 rad between weights 0 and 1e-10
+    (``_spine_reconstruct``). Weights of 1e-6 must move the pose by about that much."""
+    c = _creature(name)
+    frame = _frame_goals(c, animation, 0.9)
+    spine = [b for b in range(1, c.nbody) if c.has_cap(b, "spine")]
+    for eps in (1e-9, 1e-6):
+        turn = _turn_as_goals_appear(c, frame, spine, eps)
+        assert turn < 1e-4, f"{name} {animation}: {turn:.4f} rad for spine goals at weight {eps:g}"

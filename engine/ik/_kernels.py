@@ -1160,18 +1160,25 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
         # where the spine phase put them (their goals, when reachable).
         acc_r = (0.0, 0.0, 0.0)
         acc_p = (0.0, 0.0, 0.0)
+        wsum = 0.0
         for d in range(P.dg_body.shape[0]):
             if P.dg_spine_particle[d] != i:
                 continue
             w = min(max(goal_pos_w[P.dg_body[d]], 0.0), 1.0)
             if w <= 0.0:
                 continue
+            wsum += w
             acc_r = vadd(acc_r, vscale(qrot(rot, v3(P.dg_chord, d)), w))
             acc_p = vadd(acc_p, vscale(vsub(v3(sp_pos, P.dg_particle[d]), v3(sp_pos, i)), w))
         if vnorm(acc_r) > EPS and vnorm(acc_p) > EPS:
             # When the spine buckled it is blended toward rest, and so is this swing
-            # (else an unreachable delegated goal folds the end body over).
-            rot = qslerp(rot, qmul(qbetween(acc_r, acc_p), rot), 1.0 - buckle)
+            # (else an unreachable delegated goal folds the end body over). The swing is
+            # taken as far as the goals weigh (their weights sum, to 1): the weighted means
+            # above do not shrink with the weights, so a goal of weight 1e-10 swung the body
+            # all the way to a particle it no longer held (random 4259's chest, 1.9 rad in
+            # the first frame of a crossfade into idle_breathe, whose spine goals start at
+            # weight 0.009; a spine body's own goal is such a delegated one).
+            rot = qslerp(rot, qmul(qbetween(acc_r, acc_p), rot), (1.0 - buckle) * min(wsum, 1.0))
         # The spine body's own rotation goal, blended by its weight.
         for gi in range(P.goal_body.shape[0]):
             if P.goal_sp[gi] == i:
