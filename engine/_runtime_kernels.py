@@ -14,6 +14,7 @@ from engine.gait._kernels import pivot_goal
 from engine.ik._kernels import borrow, solve_row, unpack
 from engine.jiggle._kernels import jiggle_kernel
 from engine.mathx.quat import (
+    quat_conj_t,
     quat_from_rotvec_t,
     quat_mul_into,
     quat_mul_t,
@@ -22,6 +23,7 @@ from engine.mathx.quat import (
     quat_rotate_t,
     quat_slerp_into,
     quat_slerp_t,
+    quat_to_rotvec_t,
 )
 
 
@@ -218,6 +220,105 @@ def solve_indexed_parallel(plan_i, plan_f, plan_f3, plan_f4, idx, root_pos, root
         if bad[idx[k]] != -1:
             nbad += 1
     return nbad
+
+
+@njit(cache=True)
+def _joint_in_parent(pos, rot, b, pb, joint_offset):
+    """Body ``b``'s joint (its origin less its rotated joint offset) in its parent's frame."""
+    jx, jy, jz = quat_rotate_t(rot[b], joint_offset[b])
+    d = (pos[b, 0] - jx - pos[pb, 0], pos[b, 1] - jy - pos[pb, 1], pos[b, 2] - jz - pos[pb, 2])
+    return quat_rotate_t(quat_conj_t(rot[pb]), d)
+
+
+@njit(cache=True)
+def switch_blend(rows, pending, t, off_pos, off_rot, prev_pos, prev_rot, world_pos, world_rot, parent, joint_offset,
+                 limb, foot, goal_pw, local_rot, local_joint, hold, dt, omega):
+    """The IK plan's hand-over (``engine.runtime``, ``_blend_switches``). A row whose plan
+    changed this frame (``pending``) keeps the pose it showed last frame, as offsets in
+    each body's parent frame (its rotation relative to its parent, as a rotation vector,
+    and its joint's place on the parent; the root's in the world). They decay as a
+    critically damped spring, (1 + omega t) exp(-omega t), t counted from the frame
+    before, and the pose is rebuilt parents first, so the chain stays joined whatever the
+    offsets. Except a planted foot (``foot`` and a full position goal this frame) and the
+    bodies of its leg above it: they show this frame's pose, so a foot that stands does
+    not slide while the offsets above it decay (0.3-1.2% of the leg with the whole chain
+    in parent frames, and a foot landing during the hand-over skated on with its offset).
+    ``t`` < 0: no hand-over running. Only ``rows`` are looked at; ``local_rot`` (nbody,
+    4), ``local_joint`` (nbody, 3) and ``hold`` (nbody,) are scratch. Returns whether a
+    hand-over still runs among the rows. Poses are body origins and rotations (world); a
+    body's joint is its origin less its rotated ``joint_offset``."""
+    live = False
+    nb = world_pos.shape[1]
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        if pending[r]:
+            pending[r] = False
+            t[r] = 0.0
+            for b in range(nb):
+                pb = parent[b]
+                if pb < 0:
+                    for k in range(3):
+                        off_pos[r, b, k] = prev_pos[r, b, k] - world_pos[r, b, k]
+                    v = quat_to_rotvec_t(quat_mul_t(prev_rot[r, b], quat_conj_t(world_rot[r, b])))
+                else:
+                    up = _joint_in_parent(prev_pos[r], prev_rot[r], b, pb, joint_offset)
+                    un = _joint_in_parent(world_pos[r], world_rot[r], b, pb, joint_offset)
+                    for k in range(3):
+                        off_pos[r, b, k] = up[k] - un[k]
+                    lp = quat_mul_t(quat_conj_t(prev_rot[r, pb]), prev_rot[r, b])
+                    ln = quat_mul_t(quat_conj_t(world_rot[r, pb]), world_rot[r, b])
+                    v = quat_to_rotvec_t(quat_mul_t(lp, quat_conj_t(ln)))
+                off_rot[r, b, 0] = v[0]
+                off_rot[r, b, 1] = v[1]
+                off_rot[r, b, 2] = v[2]
+        if t[r] < 0.0:
+            continue
+        t[r] += dt
+        x = omega * t[r]
+        kx = (1.0 + x) * np.exp(-x)
+        if kx < 1e-4:
+            t[r] = -1.0
+            continue
+        live = True
+        # planted feet and their legs (children come after their parents: walk back)
+        for b in range(nb - 1, -1, -1):
+            hold[b] = foot[b] and limb[b] >= 0 and goal_pw[r, b] >= 0.999
+        for b in range(nb - 1, 0, -1):
+            if hold[b] and limb[parent[b]] == limb[b]:
+                hold[parent[b]] = True
+        # this frame's pose in parent frames, before any body is moved
+        for b in range(nb):
+            pb = parent[b]
+            if pb < 0:
+                continue
+            ln = quat_mul_t(quat_conj_t(world_rot[r, pb]), world_rot[r, b])
+            u = _joint_in_parent(world_pos[r], world_rot[r], b, pb, joint_offset)
+            for k in range(4):
+                local_rot[b, k] = ln[k]
+            for k in range(3):
+                local_joint[b, k] = u[k] + kx * off_pos[r, b, k]
+        # the offsets on it, parents first
+        for b in range(nb):
+            pb = parent[b]
+            if hold[b]:
+                continue
+            q = quat_from_rotvec_t((kx * off_rot[r, b, 0], kx * off_rot[r, b, 1], kx * off_rot[r, b, 2]))
+            if pb < 0:
+                w = quat_normalize_t(quat_mul_t(q, world_rot[r, b]))
+                for k in range(3):
+                    world_pos[r, b, k] += kx * off_pos[r, b, k]
+                for k in range(4):
+                    world_rot[r, b, k] = w[k]
+                continue
+            w = quat_normalize_t(quat_mul_t(world_rot[r, pb], quat_mul_t(q, local_rot[b])))
+            jx, jy, jz = quat_rotate_t(world_rot[r, pb], local_joint[b])
+            ox, oy, oz = quat_rotate_t(w, joint_offset[b])
+            world_pos[r, b, 0] = world_pos[r, pb, 0] + jx + ox
+            world_pos[r, b, 1] = world_pos[r, pb, 1] + jy + oy
+            world_pos[r, b, 2] = world_pos[r, pb, 2] + jz + oz
+            for k in range(4):
+                world_rot[r, b, k] = w[k]
+    return live
 
 
 @njit(cache=True)

@@ -50,6 +50,7 @@ from engine.gait import _step_kernels as SK
 from engine.ik.plan import IKParams, default_params, plan_for
 from engine.jiggle.rig import JiggleRig
 from engine.mathx import quat_mul_batch_into, quat_rotate_batch_into, quat_rotate_inv_into
+from engine.model.caps import FOOT
 from engine.model.creature import Creature
 
 STAGES = ("player", "sample", "blend", "gait", "ik", "jiggle", "output")
@@ -143,6 +144,15 @@ class _Stack:
         self.ground = np.tile(np.array([0.0, 0.0, 1.0, 0.0]), (n, 1))
         self.ground_set = np.zeros(n, np.bool_)
         self.ik_bad = np.full(n, -1, np.int64)
+        # the IK plan's hand-over (``_blend_switches``): a pending switch, the time since
+        # one (-1: none running), the offsets of last frame's pose from the new plan's
+        self.xf_pending = np.zeros(n, np.bool_)
+        self.xf_t = np.full(n, -1.0)
+        self.xf_pos = np.zeros((n, nb, 3))
+        self.xf_rot = np.zeros((n, nb, 3))
+        self.xf_live = False
+        self.xf_hold = np.zeros(nb, np.bool_)      # scratch, one set reused across characters
+        self.xf_foot = (creature.body_caps & np.uint32(FOOT)) != 0
         # blend scratch, one set reused across characters
         self.lay_pos = np.zeros((nb, 3))
         self.lay_rot = np.zeros((nb, 4))
@@ -164,11 +174,13 @@ class _Stack:
     _PER_CHAR = ("sg_pos", "sg_rot", "sg_pw", "sg_rw", "goal_pos", "goal_rot", "goal_pw", "goal_rw", "root_pos",
                  "root_rot", "place_pos", "place_rot", "char_pos", "char_rot", "world_pos", "world_rot", "driven",
                  "jig_err", "jig_err_vel", "jig_target", "jig_target_vel", "jig_active", "jig_twist", "jig_contact",
-                 "ik_bad", "stand", "ground", "ground_set", "prev_world_pos", "prev_world_rot")
+                 "ik_bad", "stand", "ground", "ground_set", "prev_world_pos", "prev_world_rot", "xf_pending", "xf_t",
+                 "xf_pos", "xf_rot")
 
     def copy_row(self, dst: int, src: _Stack, row: int) -> None:
         for name in self._PER_CHAR:
             getattr(self, name)[dst] = getattr(src, name)[row]
+        self.xf_live = self.xf_live or bool(src.xf_pending[row]) or bool(src.xf_t[row] >= 0.0)
         self.player.rows(dst, dst + 1).copy_from(src.player.rows(row, row + 1))
 
 
@@ -394,6 +406,7 @@ class Character:
             self.gait.observe(self._stack.char_pos[self._row], self._stack.char_rot[self._row])   # what the IK did
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
+            _blend_switches(self._stack, _row(self._row), dt, [self] if self.reacting else ())
         if self.response is not None and self.response.phase != "idle":
             self.response.tick(dt)                      # 9. impact response (engine.response)
         if self.recorders:
@@ -675,6 +688,9 @@ def _update_plan(char: Character) -> None:
     goal_bodies.discard(0)
     plan = plan_for(char.creature, sorted(goal_bodies), char.ik_params)
     if plan is not char._plan:
+        if char._plan is not None:
+            char._stack.xf_pending[char._row] = True     # handed over from last frame's pose
+            char._stack.xf_live = True
         char._plan = plan
         char._scratch_ik = plan.make_scratch()
         s, r = char._stack, char._row
@@ -723,6 +739,37 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
             s.jig_target_vel, s.jig_active, s.jig_twist, s.jig_contact, s.jig_chain_joint, s.jig_chain_rot, 1.0 / 60.0,
             True), slots=(29, 30))
     s.output_call.call(float(dt), bool(simulate))
+
+
+#: 1/s of the IK plan's hand-over (``_blend_switches``): the offset falls to 1% in about 0.4 s
+#: and the pose changes fastest, omega / e of the offset a second, 0.07 s after the switch.
+SWITCH_OMEGA = 16.0
+
+
+def _blend_switches(s: _Stack, rows: np.ndarray, dt: float, reacting) -> None:
+    """The IK plan's hand-over. A character's plan (which bodies the IK poses and which
+    goals it reads) changes when a clip starts or ends, and a plan with a body's goals at
+    weight zero does not pose the creature as the plan without them does: a body that
+    enters the IK sub-tree, or a spine body that becomes a particle of its own, leaves the
+    pose its parent carried it in for the solver's (random creature 24's head, 0.79 rad in
+    the first frame of a crossfade from hold_platter into idle_breathe, which puts goals
+    on the spine). So at a switch the pose shown last frame is kept as per-body offsets
+    that decay (critically damped, ``SWITCH_OMEGA``; the impact response hands back the
+    same way), in each body's parent frame so the chain stays joined (offsets per body in
+    the world parted joints by 18% of a bone on captured skeletons in ``dance``), but for a
+    planted foot's leg, which shows this frame's pose so the foot does not slide
+    (``RK.switch_blend``). A character in an impact response is skipped: the response
+    hands over itself."""
+    for m in reacting:
+        s.xf_pending[m._row] = False
+        s.xf_t[m._row] = -1.0
+    if not s.xf_live:
+        return
+    c = s.creature
+    live = RK.switch_blend(rows, s.xf_pending, s.xf_t, s.xf_pos, s.xf_rot, s.prev_world_pos, s.prev_world_rot,
+                           s.world_pos, s.world_rot, c.body_parent, c.body_joint_offset, c.body_limb, s.xf_foot,
+                           s.goal_pw, s.lay_rot, s.lay_pos, s.xf_hold, float(dt), SWITCH_OMEGA)
+    s.xf_live = live or (rows.shape[0] < s.n and bool(np.any(s.xf_t >= 0.0) or np.any(s.xf_pending)))
 
 
 #: Index arrays of one element, made once (row k of a stack), so the per-frame path
@@ -893,6 +940,8 @@ class _Group:
         # 7-8. jiggle and world output: one kernel over the stack
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
+            if s.xf_live:
+                _blend_switches(s, s.rows, dt, [m for m in _REACTING if m._stack is s] if _REACTING else ())
         # 9. impact response: only the members reacting, after the batched stages
         if _REACTING:
             for m in [m for m in _REACTING if m._stack is s]:
