@@ -406,7 +406,8 @@ class Character:
             self.gait.observe(self._stack.char_pos[self._row], self._stack.char_rot[self._row])   # what the IK did
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
-            _blend_switches(self._stack, _row(self._row), dt, [self] if self.reacting else ())
+            if self._stack.xf_live:
+                _blend_switches(self._stack, _row(self._row), dt, [self] if self.reacting else ())
         if self.response is not None and self.response.phase != "idle":
             self.response.tick(dt)                      # 9. impact response (engine.response)
         if self.recorders:
