@@ -252,6 +252,8 @@ class Character:
         frame moves the character (its passive bodies swing with the motion);
         ``teleport=True`` jumps without secondary motion."""
         s, r = self._stack, self._row
+        if teleport:
+            old_pos, old_rot = s.place_pos[r].copy(), s.place_rot[r].copy()
         if position is not None:
             p = np.asarray(position, dtype=float)
             if p.shape != (3,) or not np.all(np.isfinite(p)):
@@ -270,15 +272,22 @@ class Character:
                 raise ValueError(f"rotation must be a non-zero finite quaternion (w, x, y, z), got {rotation!r}")
             s.place_rot[r] = q / n
         if teleport:
-            self._snap_world()
+            self._snap_world(old_pos, old_rot)
 
-    def _snap_world(self) -> None:
-        """World pose = placement x current character-space pose; passive motion reset."""
+    def _snap_world(self, old_pos: np.ndarray, old_rot: np.ndarray) -> None:
+        """The displayed pose carried rigidly from the placement (``old_pos``, ``old_rot``)
+        to the current one; passive motion reset. Carried, not rebuilt from the
+        character-space pose: passive bodies are posed in the world by the output stage
+        and their character-space rows are stale (the impact response's stagger, placed on
+        where it stepped to as it ended, showed random 31's jaw 0.68 rad off for a frame)."""
         s, r = self._stack, self._row
         n = self.creature.nbody
-        place = np.repeat(s.place_rot[r][None], n, axis=0)
-        quat_mul_batch_into(place, s.char_rot[r], s.world_rot[r])
-        quat_rotate_batch_into(place, s.char_pos[r], s.world_pos[r])
+        delta = _qmul(s.place_rot[r], old_rot * np.array([1.0, -1.0, -1.0, -1.0]))
+        d = np.repeat(delta[None], n, axis=0)
+        rot = s.world_rot[r].copy()
+        quat_mul_batch_into(d, rot, s.world_rot[r])
+        rel = s.world_pos[r] - old_pos
+        quat_rotate_batch_into(d, rel, s.world_pos[r])
         s.world_pos[r] += s.place_pos[r]
         s.jig_err[r] = 0.0
         s.jig_err_vel[r] = 0.0
@@ -407,7 +416,7 @@ class Character:
         if st.output:
             _output_stack(self._stack, self.jiggle_rig, dt, st.jiggle)   # 7-8. jiggle, world output
             if self._stack.xf_live:
-                _blend_switches(self._stack, _row(self._row), dt, [self] if self.reacting else ())
+                _blend_switches(self._stack, _row(self._row), dt, [self] if _handing_over(self) else ())
         if self.response is not None and self.response.phase != "idle":
             self.response.tick(dt)                      # 9. impact response (engine.response)
         if self.recorders:
@@ -747,6 +756,15 @@ def _output_stack(s: _Stack, rig: JiggleRig, dt: float, simulate: bool) -> None:
 SWITCH_OMEGA = 16.0
 
 
+def _handing_over(char: Character) -> bool:
+    """An impact response places the pose itself (physical, or its hand-off's offset on
+    the found clip): the plan's hand-over stays out of its way. Once the offset is gone (a
+    stagger still to end, "settle") the clips drive the pose alone, and a plan switch there
+    (the stagger fading out to nothing before what played before resumes: random 31's
+    mouth turned 0.68 rad in that frame) is handed over like any other."""
+    return char.response is not None and char.response.phase in ("burst", "transition", "blend")
+
+
 def _blend_switches(s: _Stack, rows: np.ndarray, dt: float, reacting) -> None:
     """The IK plan's hand-over. A character's plan (which bodies the IK poses and which
     goals it reads) changes when a clip starts or ends, and a plan with a body's goals at
@@ -759,8 +777,8 @@ def _blend_switches(s: _Stack, rows: np.ndarray, dt: float, reacting) -> None:
     same way), in each body's parent frame so the chain stays joined (offsets per body in
     the world parted joints by 18% of a bone on captured skeletons in ``dance``), but for a
     planted foot's leg, which shows this frame's pose so the foot does not slide
-    (``RK.switch_blend``). A character in an impact response is skipped: the response
-    hands over itself."""
+    (``RK.switch_blend``). ``reacting``: characters an impact response is placing
+    (``_handing_over``), skipped: the response hands over itself."""
     for m in reacting:
         s.xf_pending[m._row] = False
         s.xf_t[m._row] = -1.0
@@ -942,7 +960,7 @@ class _Group:
         if st.output:
             _output_stack(s, ref.jiggle_rig, dt, st.jiggle)
             if s.xf_live:
-                _blend_switches(s, s.rows, dt, [m for m in _REACTING if m._stack is s] if _REACTING else ())
+                _blend_switches(s, s.rows, dt, [m for m in _REACTING if m._stack is s and _handing_over(m)])
         # 9. impact response: only the members reacting, after the batched stages
         if _REACTING:
             for m in [m for m in _REACTING if m._stack is s]:
