@@ -107,3 +107,35 @@ def test_the_hand_over_keeps_joints_joined_and_planted_feet_still():
     for f in c.leg_foot:
         drift = np.linalg.norm(pos[1:, f] - pos[:-1, f], axis=-1).max()
         assert drift < 1e-9, f"{c.body_names[f]} moved {drift:.2e} m in a frame while standing"
+
+
+def test_a_teleport_carries_the_shown_pose_passive_bodies_too():
+    """``set_placement(..., teleport=True)`` moves the character with the pose it shows:
+    every body, the passive ones (posed in the world by Jiggles, whose character-space rows
+    are stale) included, carried rigidly from the old placement to the new one. It rebuilt
+    the pose from the character-space rows, and the impact response's stagger, placed
+    where it stepped to as it ended, showed random 31's jaw 0.68 rad off for a frame."""
+    c = engine.load_creature(os.path.join(ROOT, "creatures", "humanoid.yaml"))
+    ch = Character(c)
+    ch.play(_anim("jump_in_place"))
+    for _ in range(20):
+        ch.tick(1 / 60)                  # passive bodies (ears, jaw) swing behind the jump
+    passive = ~ch._stack.driven[ch._row]
+    assert passive.any()
+    pos0, rot0 = ch.world_positions.copy(), ch.world_rotations.copy()
+    heading = 0.7
+    ch.set_placement(position=(1.0, -2.0, 0.0), heading=heading, teleport=True)
+    q = np.array([np.cos(heading / 2), 0.0, 0.0, np.sin(heading / 2)])
+    want_pos = _rotate(np.repeat(q[None], c.nbody, axis=0), pos0) + np.array([1.0, -2.0, 0.0])
+    np.testing.assert_allclose(ch.world_positions, want_pos, atol=1e-12)
+    want_rot = np.array([_qmul(q, r) for r in rot0])
+    d = np.abs(np.sum(ch.world_rotations * want_rot, axis=1))
+    assert d.min() > 1 - 1e-12
+    ch.tick(1 / 60)                      # and the next frame goes on from there
+    assert _worst_turn(np.stack([ch.world_rotations * 0 + want_rot, ch.world_rotations])) < STEP
+
+
+def _qmul(a, b):
+    aw, av = a[0], a[1:]
+    bw, bv = b[0], b[1:]
+    return np.r_[aw * bw - av @ bv, aw * bv + bw * av + np.cross(av, bv)]
