@@ -328,7 +328,8 @@ def _write_html(out: str, doc: dict, pictures: bool) -> None:
              f"<p><code>{e(doc['command'])}</code> &middot; {e(doc['meta'].get('date', ''))} &middot; commit "
              f"{e(doc['meta'].get('commit', '?'))}</p>",
              "<div id='summary'>"]
-    for key in ("pass_rate", "plays", "pass", "warn", "fail", "known_fail", "flips", "nonfinite", "not_applicable",
+    for key in ("pass_rate", "plays", "pass", "warn", "fail", "known_fail", "flips", "flips_twist", "nonfinite",
+                "not_applicable",
                 "cells", "creatures", "seconds", "cells_per_second", "workers"):
         parts.append(f"<div>{key.replace('_', ' ')}<b class='num' id='summary-{key}'>{e(str(s.get(key, '')))}</b>"
                      "</div>")
@@ -535,7 +536,8 @@ def cmd_grid(args: argparse.Namespace) -> int:
     s = write_report(out, run, animations=paths, command=command, previous=previous,
                      pictures=not args.no_pictures)
     print(f"{s['cells']} cells ({s['plays']} played, {s['not_applicable']} not applicable): {s['pass']} pass, "
-          f"{s['warn']} warn, {s['fail']} fail; pass rate {s['pass_rate']:.4f}; {s['flips']} with flips; "
+          f"{s['warn']} warn, {s['fail']} fail; pass rate {s['pass_rate']:.4f}; {s['flips']} with flips "
+          f"({s.get('flips_twist', 0)} a body spinning about its bone); "
           f"{s['seconds']:.1f} s ({s['cells_per_second']:.1f} cells/s)")
     if previous is not None:
         with open(grid_json, encoding="utf-8") as f:

@@ -103,6 +103,20 @@ def test_a_pop_is_split_into_the_swing_of_the_bone_and_the_twist_about_it(mini, 
     assert m.detail["swing" if twisted else "twist"] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_summary_counts_flips_that_are_a_spin_about_the_bone():
+    from engine.validation.grid import flip_kind, summarize
+
+    def cell(swing, twist):
+        m = {"value": 1.2, "verdict": T.FAIL, "detail": {"swing": swing, "twist": twist}}
+        return {"creature": "c", "animation": "a", "variant_id": "", "status": T.FAIL, "reason": "",
+                "metrics": {"rotation_pop": m}}
+
+    spin, jump = cell(0.2, 1.1), cell(1.1, 0.1)
+    assert (flip_kind(spin), flip_kind(jump)) == ("twist", "swing")
+    s = summarize([spin, jump, jump])
+    assert (s["flips"], s["flips_twist"]) == (3, 1)
+
+
 def test_a_turn_the_goal_asks_for_is_not_a_pop(mini):
     """The same 1.2 rad turn with a full-weight rotation goal that turns alike: asked."""
     rec, ctx = still(mini), CellContext.for_creature(mini)

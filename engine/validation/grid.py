@@ -391,6 +391,15 @@ def is_flip(cell: dict) -> bool:
     return any(_metric_value(cell, m) > T.BY_METRIC[m].fail for m in POPS)
 
 
+def flip_kind(cell: dict) -> str:
+    """"twist" when the cell's worst flip is mostly its body spinning about its bone (the
+    rebuild's reference near its singular chord), "swing" when the bone itself jumped (the
+    solver took another solution); the continuity measures' ``swing``/``twist`` detail."""
+    worst = max((cell.get("metrics", {}).get(m) or {} for m in POPS), key=lambda m: m.get("value") or 0.0)
+    d = worst.get("detail") or {}
+    return "twist" if float(d.get("twist", 0.0)) > float(d.get("swing", 0.0)) else "swing"
+
+
 def summarize(cells: list[dict], seconds: float = 0.0) -> dict:
     """The summary object of ``grid.json``."""
     n = len(cells)
@@ -411,7 +420,8 @@ def summarize(cells: list[dict], seconds: float = 0.0) -> dict:
         "cells": n, "plays": plays, "not_applicable": na, "pass": counts[T.PASS], "warn": counts[T.WARN],
         "fail": counts[T.FAIL], "pass_rate": round(counts[T.PASS] / plays, 6) if plays else 0.0,
         "pass_or_warn_rate": round((counts[T.PASS] + counts[T.WARN]) / plays, 6) if plays else 0.0,
-        "known_fail": len(known), "flips": len(flips), "nonfinite": len(nonfinite),
+        "known_fail": len(known), "flips": len(flips),
+        "flips_twist": sum(flip_kind(c) == "twist" for c in flips), "nonfinite": len(nonfinite),
         "fail_by_metric": dict(sorted(fail_by_metric.items(), key=lambda kv: -kv[1])),
         "worst": [{"creature": c["creature"], "animation": c["animation"], "variant_id": c["variant_id"],
                    "reason": c["reason"], "severity": round(severity(c), 3)} for c in failing[:WORST_LISTED]],
