@@ -289,7 +289,7 @@ def switch_blend(rows, pending, t, off_pos, off_rot, prev_pos, prev_rot, world_p
         # this frame's pose in parent frames, before any body is moved
         for b in range(nb):
             pb = parent[b]
-            if pb < 0:
+            if pb < 0 or hold[b]:
                 continue
             ln = quat_mul_t(quat_conj_t(world_rot[r, pb]), world_rot[r, b])
             u = _joint_in_parent(world_pos[r], world_rot[r], b, pb, joint_offset)

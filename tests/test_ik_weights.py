@@ -49,21 +49,24 @@ def _frame_goals(creature, animation: str, seconds: float):
             s.goal_pw[r].copy(), s.goal_rw[r].copy())
 
 
-def _turn_under_scaled_weights(creature, frame, scale: float) -> float:
-    rp, rr, gp, gr, pw, rw = frame
-    bodies = [int(b) for b in np.nonzero((pw > 0) | (rw > 0))[0]]
-    solver = IKSolver(creature, bodies)
+def _solve(solver, frame, gp, gr, pw, rw):
+    """The frame's root with these goals: the IK bodies' rotations."""
+    solver.goals.clear()
+    for b in solver.plan.goal_bodies:
+        solver.goals.set(b, pos=gp[b], rot=gr[b], pos_weight=pw[b], rot_weight=rw[b])
+    solver.solve(frame[0], frame[1])
+    return solver.out_rot[solver.plan.ik_bodies].copy()
 
-    def solve(k):
-        solver.goals.clear()
-        for b in bodies:
-            solver.goals.set(b, pos=gp[b], rot=gr[b], pos_weight=pw[b] * k, rot_weight=rw[b] * k)
-        solver.solve(rp, rr)
-        return solver.out_rot[solver.plan.ik_bodies].copy()
 
-    a, b = solve(1.0), solve(scale)
+def _largest_turn(a, b) -> float:
     assert np.all(np.isfinite(b))
     return float(np.max(2.0 * np.arccos(np.clip(np.abs(np.sum(a * b, axis=1)), 0.0, 1.0))))
+
+
+def _turn_under_scaled_weights(creature, frame, scale: float) -> float:
+    _, _, gp, gr, pw, rw = frame
+    solver = IKSolver(creature, [int(b) for b in np.nonzero((pw > 0) | (rw > 0))[0]])
+    return _largest_turn(_solve(solver, frame, gp, gr, pw, rw), _solve(solver, frame, gp, gr, pw * scale, rw * scale))
 
 
 @pytest.mark.parametrize("name,animation,seconds", [
@@ -94,25 +97,19 @@ def test_random_creatures_goals_fade_continuously(seed, animation):
 def _turn_as_goals_appear(creature, frame, extra, eps: float) -> float:
     """Largest turn of an IK body between the frame's goals with the ``extra`` bodies'
     goals at weight 0 and at weight ``eps`` (same plan: the bodies are goal bodies both
-    times)."""
-    rp, rr, gp, gr, pw, rw = frame
-    bodies = sorted({int(b) for b in np.nonzero((pw > 0) | (rw > 0))[0]} | set(extra))
-    solver = IKSolver(creature, bodies)
-
-    def solve(w):
-        solver.goals.clear()
-        for b in bodies:
-            if b in extra:
-                solver.goals.set(b, pos=gp[b] if pw[b] > 0 else creature.body_rest_pos[b] + rp,
-                                 rot=creature.body_rest_rot[b], pos_weight=w, rot_weight=w)
-            else:
-                solver.goals.set(b, pos=gp[b], rot=gr[b], pos_weight=pw[b], rot_weight=rw[b])
-        solver.solve(rp, rr)
-        return solver.out_rot[solver.plan.ik_bodies].copy()
-
-    a, b = solve(0.0), solve(eps)
-    assert np.all(np.isfinite(b))
-    return float(np.max(2.0 * np.arccos(np.clip(np.abs(np.sum(a * b, axis=1)), 0.0, 1.0))))
+    times; an extra body without a position goal of the frame's is held at its rest)."""
+    rp, _, gp, gr, pw, rw = frame
+    extra = [b for b in extra if b != 0]
+    solver = IKSolver(creature, sorted({int(b) for b in np.nonzero((pw > 0) | (rw > 0))[0]} | set(extra)))
+    gp, gr, pw0, rw0 = gp.copy(), gr.copy(), pw.copy(), rw.copy()
+    for b in extra:
+        if pw[b] <= 0:
+            gp[b] = creature.body_rest_pos[b] + rp
+        gr[b] = creature.body_rest_rot[b]
+        pw0[b] = rw0[b] = 0.0
+    pwe, rwe = pw0.copy(), rw0.copy()
+    pwe[extra] = rwe[extra] = eps
+    return _largest_turn(_solve(solver, frame, gp, gr, pw0, rw0), _solve(solver, frame, gp, gr, pwe, rwe))
 
 
 @pytest.mark.parametrize("name,animation", [

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import engine
+from engine.mathx import quat_mul, quat_rotate_batch
 from engine.model import build_creature, random_creature_def
 from engine.physics.world import rotvec_between
 from engine.runtime import Character, Crowd
@@ -48,13 +49,6 @@ def _crossfade(chars, clip, ticks):
         pos.append(np.stack([ch.world_positions.copy() for ch in chars]))
         rot.append(np.stack([ch.world_rotations.copy() for ch in chars]))
     return np.array(pos), np.array(rot)
-
-
-def _rotate(q, v):
-    """Rows of v rotated by rows of q (w-first)."""
-    w, u = q[:, :1], q[:, 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
 
 
 def _worst_turn(rot):
@@ -98,8 +92,8 @@ def test_the_hand_over_keeps_joints_joined_and_planted_feet_still():
     gaps = []
     for b in range(1, c.nbody):
         p = int(c.body_parent[b])
-        joint = pos[:, b] - _rotate(rot[:, b], np.broadcast_to(c.body_joint_offset[b], pos[:, b].shape))
-        local = _rotate(rot[:, p] * np.array([1, -1, -1, -1]), joint - pos[:, p])
+        joint = pos[:, b] - quat_rotate_batch(rot[:, b], np.tile(c.body_joint_offset[b], (len(pos), 1)))
+        local = quat_rotate_batch(rot[:, p] * np.array([1, -1, -1, -1]), joint - pos[:, p])
         gaps.append(np.linalg.norm(local - c.body_local_joint[b], axis=-1).max() / np.linalg.norm(c.body_local_joint[b]))
     # the IK stretches bones by at most 2% (limbs) and 20% (spine chords, spread over
     # their bodies): nothing in a hand-over adds to it
@@ -126,16 +120,10 @@ def test_a_teleport_carries_the_shown_pose_passive_bodies_too():
     heading = 0.7
     ch.set_placement(position=(1.0, -2.0, 0.0), heading=heading, teleport=True)
     q = np.array([np.cos(heading / 2), 0.0, 0.0, np.sin(heading / 2)])
-    want_pos = _rotate(np.repeat(q[None], c.nbody, axis=0), pos0) + np.array([1.0, -2.0, 0.0])
+    want_pos = quat_rotate_batch(np.repeat(q[None], c.nbody, axis=0), pos0) + np.array([1.0, -2.0, 0.0])
     np.testing.assert_allclose(ch.world_positions, want_pos, atol=1e-12)
-    want_rot = np.array([_qmul(q, r) for r in rot0])
+    want_rot = np.array([quat_mul(q, r) for r in rot0])
     d = np.abs(np.sum(ch.world_rotations * want_rot, axis=1))
     assert d.min() > 1 - 1e-12
     ch.tick(1 / 60)                      # and the next frame goes on from there
     assert _worst_turn(np.stack([ch.world_rotations * 0 + want_rot, ch.world_rotations])) < STEP
-
-
-def _qmul(a, b):
-    aw, av = a[0], a[1:]
-    bw, bv = b[0], b[1:]
-    return np.r_[aw * bw - av @ bv, aw * bv + bw * av + np.cross(av, bv)]

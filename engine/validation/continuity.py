@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.mathx import quat_conj, quat_mul, quat_rotate
+from engine.mathx import quat_conj, quat_mul, quat_rotate, quat_swing_twist
 from engine.model.caps import DETAIL, EAR, EYE, SPIKE
 from engine.validation import _kernels as K
 from engine.validation.measure import Measure, worst
@@ -163,24 +163,14 @@ def swing_twist(q0, q1, axis) -> tuple[float, float]:
     spinning a body about a bone that hardly moved (a twist reference's singular
     direction); mostly swing, the bones themselves jumped (the particles took another
     solution)."""
-    a = np.asarray(axis, float)
-    u0 = quat_rotate(np.asarray(q0, float), a)
-    u1 = quat_rotate(np.asarray(q1, float), a)
-    swing = float(np.arctan2(np.linalg.norm(np.cross(u0, u1)), float(np.dot(u0, u1))))
-    d = quat_mul(np.asarray(q1, float), quat_conj(np.asarray(q0, float)))   # world turn q0 -> q1
-    # what is left after the shortest arc u0 -> u1 is a turn about u0
-    n = np.cross(u0, u1)
-    s = np.linalg.norm(n)
-    if s > 1e-12:
-        h = 0.5 * swing
-        arc = np.r_[np.cos(h), np.sin(h) * n / s]
-    elif float(np.dot(u0, u1)) > 0.0:
-        arc = np.array([1.0, 0.0, 0.0, 0.0])
-    else:   # axis reversed: any half turn across it; the twist is then measured about it
-        return swing, 0.0
-    r = quat_mul(quat_conj(arc), d)
-    twist = float(2.0 * np.arctan2(abs(float(np.dot(r[1:], u0))), abs(float(r[0]))))
-    return swing, twist
+    q0 = np.asarray(q0, float)
+    d = quat_mul(np.asarray(q1, float), quat_conj(q0))    # the world turn q0 -> q1
+    sw, tw = quat_swing_twist(d, quat_rotate(q0, np.asarray(axis, float)))   # d = swing * twist about the bone
+    return _angle(sw), _angle(tw)
+
+
+def _angle(q) -> float:
+    return float(2.0 * np.arctan2(np.linalg.norm(q[1:]), abs(float(q[0]))))
 
 
 def _carry_max(c, per_body: np.ndarray) -> np.ndarray:
