@@ -14,9 +14,11 @@ joint torques (as equal and opposite body torques on each joint's two bodies) th
   of pressure sits under the centre of mass (least squares over the supports, shares
   clipped at 0);
 * **balance** with a wrench on the root, as the ground would give it through stiff legs:
-  a horizontal force F_h = M (kp (c_ref - c) - kd v_c) toward where the centre of mass
-  stood at the hit, and a torque I (kp_r rotvec(q_root -> q_ref) - kd_r w) back to the
-  root's orientation then (w the mass-weighted mean angular velocity). Both are limited
+  a horizontal force F_h = M (kp (s + c_ref - c) - kd v_c) toward where the centre of mass
+  stood at the hit over the supports' centre s (c_ref taken relative to s then), and a
+  torque I (kp_r rotvec(q_root -> q_ref) - kd_r w) back to the root's orientation then
+  (I the whole body's inertia tensor about its centre of mass, I w its angular momentum
+  there). Both are limited
   to what the supports could give (|F_h| <= 0.5 M g, |T| <= M g times the supports'
   reach from their centre), so a strong hit still topples the body: the controller
   answers taps, not knock-downs. (Realizing the balance through the legs as support
@@ -47,12 +49,15 @@ def _rotate(q, b, vx, vy, vz):
 
 
 @njit(cache=True)
-def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, body_joint, joint_anchor_parent,
+def stand_torques(pos, rot, linvel, angvel, force, torque, mass, inertia, body_parent, body_joint, joint_anchor_parent,
                   joint_locked, body_foot, body_press, feat_body, feat_local, feat_radius, terrain, tparams, gravity,
                   ref, gains, scratch, support, out):
     """Add the standing torques to ``torque`` (n, 3) in place.
 
-    ref (7,): c_ref x, y (where the centre of mass stood, world),
+    inertia (n, 3): each body's principal moments in its own frame (kg m^2).
+
+    ref (7,): c_ref x, y (where the centre of mass stood at the hit, relative to the
+        supports' centre then: the reference goes where the supports go),
         q_ref (4) the root's orientation to hold, and a flag (1: the reference is set;
         0: set it from this frame and store it).
     gains (8,): kp, kd of the centre of mass (1/s^2, 1/s), kp_r, kd_r of the root's
@@ -182,15 +187,20 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, bo
             ey += scratch[b, 4] * support[b, 2]
     out[4] = math.sqrt((ex - cx) ** 2 + (ey - cy) ** 2)
     # -- the reference: where the COM stood over the supports, the root's orientation ----
+    # Relative to the supports' centre: until s40 c_ref was a fixed point in the world, and a
+    # push that slid the feet 26% of the height along (random 20, 1.5 m/s) was pulled back by
+    # the wrench past where it stood (9% of the height the other way at the hand-off), the feet
+    # sliding back under a force no ground gives. The ground holds the centre of mass over the
+    # feet wherever they are.
     if ref[6] == 0.0:
-        ref[0] = cx
-        ref[1] = cy
+        ref[0] = cx - sx
+        ref[1] = cy - sy
         for k in range(4):
             ref[2 + k] = rot[0, k]
         ref[6] = 1.0
     frac = gains[5]
-    fhx = M * frac * (gains[0] * (ref[0] - cx) - gains[1] * vx)
-    fhy = M * frac * (gains[0] * (ref[1] - cy) - gains[1] * vy)
+    fhx = M * frac * (gains[0] * (sx + ref[0] - cx) - gains[1] * vx)
+    fhy = M * frac * (gains[0] * (sy + ref[1] - cy) - gains[1] * vy)
     # friction cone of the whole support (mu ~ 0.5 of the weight)
     fh = math.sqrt(fhx * fhx + fhy * fhy)
     lim = 0.5 * M * g
@@ -212,25 +222,62 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, body_parent, bo
     kk = ang / sn if sn > 1e-12 else 2.0
     ex, ey, ez = dx * kk, dy * kk, dz * kk
     out[5] = ang
-    # whole-body inertia about the COM (scalar, the trace's mean) for the root's turn
-    inert = 0.0
+    # The root's turn back, as a torque on the whole body: I (kp_r e - kd_r w) with I the whole
+    # body's inertia tensor about its centre of mass and w = I^-1 L its angular velocity (L
+    # its angular momentum about the COM), so the damping is simply -kd_r L.
+    # Until s40: I was a scalar (the trace's mean) and w the mass-weighted mean of the bodies'
+    # angular velocities. The scalar made the roll of a long low body 14 times stiffer than
+    # its inertia (centipede: 1.2 m long, 6.5 cm high), and held for a frame that vibrated it
+    # at 0.5-1 rad a frame after a 0.003 N s tap; the mean counted a 2 mm tail segment
+    # spinning at 300 rad/s as if its share of the mass turned the whole body, and fed that
+    # spin back (random 44, its tail from 9 to 300 rad/s in six frames).
+    ixx = iyy = izz = ixy = ixz = iyz = 0.0
+    lx = ly = lz = 0.0
     for b in range(n):
         ddx, ddy, ddz = pos[b, 0] - cx, pos[b, 1] - cy, pos[b, 2] - cz
-        inert += mass[b] * (ddx * ddx + ddy * ddy + ddz * ddz)
-    inert *= 2.0 / 3.0
-    # damped on the mass-weighted mean angular velocity (a light root's own can be
-    # dominated by its joints' corrections)
-    wx = wy = wz = 0.0
-    for b in range(n):
-        wx += mass[b] * angvel[b, 0]
-        wy += mass[b] * angvel[b, 1]
-        wz += mass[b] * angvel[b, 2]
-    wx /= M
-    wy /= M
-    wz /= M
-    tvx = inert * frac * (gains[2] * ex - gains[3] * wx)
-    tvy = inert * frac * (gains[2] * ey - gains[3] * wy)
-    tvz = inert * frac * (gains[2] * ez - gains[3] * wz)
+        m_ = mass[b]
+        ixx += m_ * (ddy * ddy + ddz * ddz)
+        iyy += m_ * (ddx * ddx + ddz * ddz)
+        izz += m_ * (ddx * ddx + ddy * ddy)
+        ixy -= m_ * ddx * ddy
+        ixz -= m_ * ddx * ddz
+        iyz -= m_ * ddy * ddz
+        ux, uy, uz = linvel[b, 0] - vx, linvel[b, 1] - vy, linvel[b, 2] - vz
+        lx += m_ * (ddy * uz - ddz * uy)
+        ly += m_ * (ddz * ux - ddx * uz)
+        lz += m_ * (ddx * uy - ddy * ux)
+        # the body's own inertia R diag(I_b) R^T, and its own spin's momentum
+        qw, qx, qy, qz = rot[b, 0], rot[b, 1], rot[b, 2], rot[b, 3]
+        r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+        r01 = 2.0 * (qx * qy - qw * qz)
+        r02 = 2.0 * (qx * qz + qw * qy)
+        r10 = 2.0 * (qx * qy + qw * qz)
+        r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
+        r12 = 2.0 * (qy * qz - qw * qx)
+        r20 = 2.0 * (qx * qz - qw * qy)
+        r21 = 2.0 * (qy * qz + qw * qx)
+        r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
+        a0, a1, a2 = inertia[b, 0], inertia[b, 1], inertia[b, 2]
+        ixx += a0 * r00 * r00 + a1 * r01 * r01 + a2 * r02 * r02
+        iyy += a0 * r10 * r10 + a1 * r11 * r11 + a2 * r12 * r12
+        izz += a0 * r20 * r20 + a1 * r21 * r21 + a2 * r22 * r22
+        ixy += a0 * r00 * r10 + a1 * r01 * r11 + a2 * r02 * r12
+        ixz += a0 * r00 * r20 + a1 * r01 * r21 + a2 * r02 * r22
+        iyz += a0 * r10 * r20 + a1 * r11 * r21 + a2 * r12 * r22
+        ox, oy, oz = angvel[b, 0], angvel[b, 1], angvel[b, 2]
+        # R diag(I) R^T w
+        bx = r00 * ox + r10 * oy + r20 * oz
+        by = r01 * ox + r11 * oy + r21 * oz
+        bz = r02 * ox + r12 * oy + r22 * oz
+        bx *= a0
+        by *= a1
+        bz *= a2
+        lx += r00 * bx + r01 * by + r02 * bz
+        ly += r10 * bx + r11 * by + r12 * bz
+        lz += r20 * bx + r21 * by + r22 * bz
+    tvx = frac * (gains[2] * (ixx * ex + ixy * ey + ixz * ez) - gains[3] * lx)
+    tvy = frac * (gains[2] * (ixy * ex + iyy * ey + iyz * ez) - gains[3] * ly)
+    tvz = frac * (gains[2] * (ixz * ex + iyz * ey + izz * ez) - gains[3] * lz)
     # ground forces f_i = w_i (M g_up + F_h); their moment about the COM
     mx = my = mz = 0.0
     for b in range(n):

@@ -278,6 +278,8 @@ class ImpactResponse:
         self.match = None             #: the SearchResult
         self.entry = None             #: the library entry (clip, variant, speed; or a gait cycle)
         self.hits = 0
+        self._push = np.zeros(3)      # the running response's hits' impulse, N s (the search's push)
+        self._found_down = True       # the found clip goes down from the matched frame (a fall)
         self.tap = False              #: the running response is a tap (no search, see _is_tap)
         self.time = 0.0               # s since the last hit
         self.since_start = 0.0        # s since the response began
@@ -350,7 +352,7 @@ class ImpactResponse:
         s = state_from_kinematic(self.model1, *self._lock_leaves(pos, rot))
         if self.stand1 is not None:
             ref = self.stand1.ref.copy()
-            self.stand1.apply(s)
+            self.stand1.apply(s, 1.0, self._frame_dt)
             np.copyto(self.stand1.ref, ref)
         step(self.model1, s, self._frame_dt, substeps=1)
         W = lib.window
@@ -420,6 +422,12 @@ class ImpactResponse:
             self._fade_handle = None
         np.copyto(self._prev_anim_pos, ch.world_positions)
         np.copyto(self._prev_anim_rot, ch.world_rotations)
+        # the push the search prefers to travel along (search.py): the hits of a physical
+        # response add up; a hit on a pose that is animation again starts a new push
+        if self.phase in ("burst", "transition"):
+            self._push += J
+        else:
+            self._push = J.copy()
         full = self.phase in ("burst", "transition") and self._recoil == 0.0
         self._recoil = 0.0 if (recoil <= 0.0 or full) else float(recoil)
         self.phase = "burst"
@@ -483,7 +491,7 @@ class ImpactResponse:
                 self._transition_targets()
             self._apply_contacts(self.model2, self.sim2, self._contact, dt)
             if self.stand2 is not None and p.stand_live:
-                self.stand2.apply(self.sim2, self._balance)
+                self.stand2.apply(self.sim2, self._balance, dt)
             sub = max(1, int(math.ceil(dt / p.substep)))
             step(self.model2, self.sim2, dt, substeps=sub)
             self._entry_t += dt
@@ -542,7 +550,7 @@ class ImpactResponse:
                 self.sim1.body_force[:] = 0.0
                 self.sim1.body_torque[:] = 0.0
             if self.stand1 is not None:
-                self.stand1.apply(self.sim1)
+                self.stand1.apply(self.sim1, 1.0, self._frame_dt)
             step(self.model1, self.sim1, self._frame_dt, substeps=sub)
             self._record_sim1()
             self.sim1_trace.append((self.since_start - self.time + (self._sim1_count - 1) * self._frame_dt,
@@ -583,8 +591,9 @@ class ImpactResponse:
             return
         feats = window_features(self.char.creature, self._sim1_pos[: self._sim1_count],
                                 self._sim1_rot[: self._sim1_count])
-        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=self.locomoting())
+        res: SearchResult = search(self.library, feats, k0, k1, allow_gait=self.locomoting(), push=self._push)
         self.match = res
+        self._found_down = self.library.goes_down(res.lib_frame)
         self.entry = self.library.entries[res.clip]
         self.clip = self.entry.animation
         self.clip_time = res.clip_time
@@ -627,7 +636,12 @@ class ImpactResponse:
         span = max(self._handoff - self._plan_time, 1e-6)
         u = min(max((self.time - self._plan_time) / span, 0.0), 1.0)
         u = u * u * (3.0 - 2.0 * u)
-        self._balance = 1.0 - u
+        # The balance fades only into a clip that goes down (a fall, lying): one that stands
+        # is balanced on its feet when it takes over, so the body is kept so until then.
+        # Faded into every clip until s40: a stance that leans on small feet (random 3,
+        # 4.3 cm ahead of 1 cm feet) tipped back as it faded, 5 cm in the last 0.25 s before
+        # the hand-off, and re-entered a standing clip there, against the push.
+        self._balance = 1.0 - u if self._found_down else 1.0
         servo_targets_from_pose(self.model2, lib.rot[f], self._found_rot)
         _slerp_into(self._hold_rot, self._found_rot, u, self.sim2.joint_target_rot)
 

@@ -275,6 +275,7 @@ class MotionLibrary:
         end_ok &= ~self.flipped[self.clip_of]
         self.valid = end_ok
         self.yaw, self.xy = yaw_of(creature, self.rot[:, 0], self.pos[:, 0])
+        self.travel = entry_travel(self.clip_of, self.xy, self.yaw)
         w = body_weights(creature)
         self.weights = w
         # unique-frame culling (paper section 3): consecutive near-identical starts dropped
@@ -296,9 +297,26 @@ class MotionLibrary:
         self.prefilter = build_prefilter(self)
         self.build_seconds = time.perf_counter() - t0
 
+    def goes_down(self, frame: int) -> bool:
+        """The entry of library frame ``frame`` takes the root below half its rest height
+        from there on (a fall, lying): the response lets the standing controller go."""
+        end = int(np.searchsorted(self.clip_of, self.clip_of[frame], side="right"))
+        rest = float(self.creature.body_rest_pos[0, 2])
+        return bool(self.pos[frame:end, 0, 2].min() < 0.5 * rest)
+
     @property
     def frames(self) -> int:
         return int(self.pos.shape[0])
+
+
+def entry_travel(clip_of: np.ndarray, xy: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(F, 2): per library frame, how far its entry still carries the root in the ground
+    plane (to the entry's last frame), in the frame's own heading: a stagger's remaining
+    steps, a fall's remaining slide; about zero for a clip played in place."""
+    last = np.searchsorted(clip_of, clip_of, side="right") - 1
+    d = xy[last] - xy
+    c, s = np.cos(-yaw), np.sin(-yaw)
+    return np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
 
 
 def _step_turns(rot: np.ndarray) -> np.ndarray:

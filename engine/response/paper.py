@@ -113,7 +113,7 @@ def paper_response(char, body, impulse, point=None, duration: float = 0.0, *,
     k1 = min(max(k0, int(p.match_max / fdt + 1e-9)), last)
     k0 = min(k0, k1)
     feats = window_features(c, r._sim1_pos[: r._sim1_count], r._sim1_rot[: r._sim1_count])
-    res = search(lib, feats, k0, k1, allow_gait=r.locomoting(), exhaustive=True)
+    res = search(lib, feats, k0, k1, allow_gait=r.locomoting(), exhaustive=True, push=r._push)
     t2 = time.perf_counter()
 
     # 3. Simulation 2 from the impact to the match time T
@@ -144,7 +144,7 @@ def paper_response(char, body, impulse, point=None, duration: float = 0.0, *,
             r._transition_targets()          # theta_d: hold -> found clip, ease-in/out
         r._apply_contacts(r.model2, r.sim2, r._contact, dt)
         if r.stand2 is not None and p.stand_live:
-            r.stand2.apply(r.sim2, r._balance)
+            r.stand2.apply(r.sim2, r._balance, dt)
         step(r.model2, r.sim2, dt, substeps=sub)
         r._entry_t += dt
         r._physics_pose(anim_pos, anim_rot)

@@ -19,6 +19,20 @@ with, all from the creature's morphology, never tuned per creature:
            costs as much as a 5% of height shift).
     w_i    1 - 0.75 (i / (W - 1))^2: quadratic, highest at the window's start.
 
+The push (``search(..., push=J)``, the hits' horizontal impulse): a library window whose
+entry still carries the root a distance t (``MotionLibrary.travel``: a stagger's steps, a
+fall's slide) costs, on top of D,
+
+    T = (sum_i w_i) (|t| - t . j) / h          j the push's direction in the window's heading
+
+zero for a clip played in place or one that travels along the push, 2 (sum w_i) |t| / h for
+one that travels against it: as if the whole window's root stood that far off. The paper has
+no such term; its window (0.2 s) sees the pose, not where the re-entered clip will carry the
+body, and a body pushed far over its feet springs back under the servos within that time:
+the windows of a stagger stepping back then match best (the bird hit at the pelvis from
+behind at 2.1 m/s, 40% of its height along the push, re-entered a stagger that stepped it
+23% of its height back, s40). The issue's staggers step *toward the push*.
+
 Unique-frame culling keeps the library starts that differ from the last kept one by
 ``library.UNIQUE_TOL``; the best culled window is then refined over every start within
 ``REFINE`` frames of it and every simulation start within ``REFINE`` frames.
@@ -228,8 +242,31 @@ def _sim_windows(lib, f: SimFeatures, ks):
     return _unyaw(yaw, xy, f.pos[idx], f.rot[idx])
 
 
-def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, exhaustive: bool = False) -> SearchResult:
-    """The best (sim start in k0..k1, library start) pair; see the module docstring."""
+def _travel_cost(lib, f: SimFeatures, ks, frames, push, wsum: float, h: float) -> np.ndarray:
+    """T (module docstring) of library frames ``frames`` (nsim, K; -1 ignored) against the
+    sim starts ``ks`` (nsim,)."""
+    travel = getattr(lib, "travel", None)
+    out = np.zeros(np.shape(frames))
+    if push is None or travel is None:
+        return out
+    p = np.asarray(push, float)[:2]
+    n = float(np.linalg.norm(p))
+    if n <= 0.0:
+        return out
+    yaw = f.yaw[np.asarray(ks)]
+    ang = np.arctan2(p[1], p[0]) - yaw                       # the push in each sim start's heading
+    j = np.stack([np.cos(ang), np.sin(ang)], axis=1)          # (nsim, 2)
+    fr = np.asarray(frames)
+    t = travel[np.maximum(fr, 0)]                             # (nsim, K, 2)
+    cost = np.linalg.norm(t, axis=-1) - np.einsum("jkc,jc->jk", t, j)
+    out[:] = np.where(fr >= 0, wsum * cost / h, 0.0)
+    return out
+
+
+def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, exhaustive: bool = False,
+           push=None) -> SearchResult:
+    """The best (sim start in k0..k1, library start) pair; see the module docstring.
+    ``push``: the hits' impulse (world, N s; its ground-plane direction is used), or None."""
     h = max(lib.creature.height, 1e-6)
     wi = window_weights(lib.window)
     ks = list(range(k0, k1 + 1, SIM_STRIDE)) or [k0]
@@ -267,6 +304,8 @@ def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, ex
             c[:, ~allowed] = -1
     D = np.empty(c.shape)
     K.window_distances(lib.win_pos, lib.win_rot, c, sps, sqs, wb, wi, 1.0 / h, D)
+    wsum = float(wi.sum())
+    D += _travel_cost(lib, f, ks, np.where(c >= 0, lib.starts[np.maximum(c, 0)], -1), push, wsum, h)
     ncand = int(D.size)
     jj, ii = np.unravel_index(int(np.argmin(D)), D.shape)
     best = (float(D[jj, ii]), ks[jj], int(lib.starts[c[jj, ii]]))
@@ -284,6 +323,7 @@ def search(lib, f: SimFeatures, k0: int, k1: int, *, allow_gait: bool = True, ex
     rc = np.repeat(np.arange(len(cand), dtype=np.int64)[None, :], len(rks), 0)
     RD = np.empty(rc.shape)
     K.window_distances(np.ascontiguousarray(wpos), np.ascontiguousarray(wrot), rc, rp, rq, rwb, wi, 1.0 / h, RD)
+    RD += _travel_cost(lib, f, rks, cand[rc], push, wsum, h)
     ncand += int(RD.size)
     jj, ii = np.unravel_index(int(np.argmin(RD)), RD.shape)
     if RD[jj, ii] < best[0]:

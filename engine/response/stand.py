@@ -46,6 +46,13 @@ class StandParams:
     # feet) is held as the animation holds it, not toppled by a tap.
     lean_margin: float = 1.5
     ref_height: float = 1.75     # m: com_hz and root_hz as given at this height and above
+    # The wrench is computed once a frame and held for it (explicit): its frequencies, in
+    # rad/s, never exceed this over the frame's length. A critically damped spring held over
+    # T is stable for w T < 1 and decays fastest near 0.8 (its step map's spectral radius
+    # 0.57; 0.70 at 0.5, 1.0 at 1). At the small creatures' raised frequencies the
+    # lookahead's 1/30 s frames held a centipede's (6.5 cm high) root turn at 10 Hz,
+    # 2 pi 10 / 30 = 2.2: it vibrated at 0.5-1 rad a frame after a 0.003 N s tap (s40).
+    max_wdt: float = 0.8
 
 
 class Stander:
@@ -84,6 +91,7 @@ class Stander:
         # body tipping on its feet falls at sqrt(g / L), and 2 Hz held a human but not a 15 cm creature
         self.hz_scale = math.sqrt(max(p.ref_height / max(self.height, 1e-6), 1.0)) if p.ref_height > 0 else 1.0
         wc, wr = 2 * math.pi * p.com_hz * self.hz_scale, 2 * math.pi * p.root_hz * self.hz_scale
+        self._w = (wc, wr)
         self.rest_lean, self.on_feet = _rest_lean(model, self.body_foot, p.tol * self.height)
         self.gains = np.array([wc * wc, 2 * p.com_zeta * wc, wr * wr, 2 * p.root_zeta * wr, p.tol * self.height, 1.0,
                                1.0 if p.carry else 0.0, p.lean_margin * self.rest_lean])
@@ -102,12 +110,22 @@ class Stander:
         the next frame ``apply`` sees."""
         self.ref[6] = 0.0
 
-    def apply(self, state: PhysicsState, fraction: float = 1.0) -> None:
+    def apply(self, state: PhysicsState, fraction: float = 1.0, dt: float | None = None) -> None:
         """Add this frame's standing torques to ``state.body_torque``; ``fraction`` scales the
-        balance term (1: full; gravity compensation is always whole)."""
+        balance term (1: full; gravity compensation is always whole). ``dt``: the frame the
+        wrench is held for (s): the frequencies are capped so that held that long it stays
+        stable (``StandParams.max_wdt``)."""
         m, a = self.model, state.arrays
         self.gains[5] = fraction
+        p = self.params
+        wc, wr = self._w
+        if dt is not None and dt > 0.0 and p.max_wdt > 0.0:
+            wc = min(wc, p.max_wdt / dt)
+            wr = min(wr, p.max_wdt / dt)
+        self.gains[0], self.gains[1] = wc * wc, 2 * p.com_zeta * wc
+        self.gains[2], self.gains[3] = wr * wr, 2 * p.root_zeta * wr
         stand_torques(a.body_pos, a.body_rot, a.body_linvel, a.body_angvel, a.body_force, a.body_torque, m.body_mass,
+                      m.body_inertia,
                       self.body_parent, self.body_joint, m.joint_anchor_parent, m.joint_locked, self.body_foot,
                       self.body_press, m.feat_body, m.feat_local, m.feat_radius, m.arrays.terrain_height,
                       self.tparams, self.gravity, self.ref, self.gains, self.scratch, self.support, self.out)
