@@ -5,14 +5,19 @@ of random hits (one, two and five in series) on library and random creatures.
         [--seed 0] [--stand on|off|lookahead|live] [--lookahead-substep S] [--paper-hits 10]
 
 A response succeeds when the output stays finite, the character is back on animation
-(``reacting`` False) within 2 s after the last hit, the hand-off ticks (to physics, back
-to animation) turn no body more than 0.5 rad, no body centre goes more than 1 cm under
-the ground, and for hits that move the root more than 2% of the height its ground-plane
-displacement is within 60 degrees of the impulse (the physical ticks between the hand-offs are
-not judged; ``physical_turn_*`` reports their largest turn per tick). Hits: a random body, a horizontal
+(the found clip drives the pose again) within 2 s after the last hit, the hand-off ticks
+(to physics, back to animation) and the animation after them turn no body more than 0.5
+rad, no body centre goes more than 1 cm under the ground, and for a single hit strong
+enough to move the creature (its momentum alone would carry it 2% of its size, the largest
+extent, in 0.2 s) that moved the root more than 2% of its size, the root's ground-plane
+displacement is within 60 degrees of the impulse (the physical ticks between the hand-offs
+are not judged; ``physical_turn_*`` reports their largest turn per tick). Hits: a random body, a horizontal
 direction, 0.2-2.5 m/s worth of the mass of the hit body's chain (``chain_mass``: its limb, or the
 whole creature for a spine body; a tap to a knock-down).
-Series: 2 and 5 hits 30-600 ms apart. Medians and p99 over all hits. ``paper_mode_s``: the
+Series: 2 and 5 hits 30-600 ms apart. The floors' timing keys (``decision_ms_*``,
+``max_tick_ms_during_response``) are the 25-body humanoid's, as issue 13 states them, over
+10 hits of its own; ``all_*`` are the same over every hit on every creature (the big ones
+cost more). ``paper_mode_s``: the
 median seconds of one response computed the paper's way, whole and ahead of display
 (``engine.response.paper``, 0.5 ms step), over ``--paper-hits`` random hits on the humanoid. Ends with one JSON
 line (keys as issue 13).
@@ -348,11 +353,14 @@ def main() -> None:
         library_frames=lib.frames, unique_starts=int(len(lib.starts)),
         search_ms_median=round(1e3 * float(np.median(ts)), 2),
         search_ms_p99=round(1e3 * float(np.percentile(ts, 99)), 2),
-        decision_ms_median=round(1e3 * float(np.median(dec_per_hit)), 2),
-        decision_ms_p99=round(1e3 * float(np.percentile(dec_per_hit, 99)), 2),
+        decision_ms_median=round(1e3 * float(np.median(hdec)), 2),
+        decision_ms_p99=round(1e3 * float(np.percentile(hdec, 99)), 2),
+        max_tick_ms_during_response=round(1e3 * float(np.max(hstats["tick"])), 2),
+        all_decision_ms_median=round(1e3 * float(np.median(dec_per_hit)), 2),
+        all_decision_ms_p99=round(1e3 * float(np.percentile(dec_per_hit, 99)), 2),
         sim1_slice_ms_max=round(1e3 * float(sim1.max()), 2) if sim1.size else 0.0,
         tick_ms_median_during_response=round(1e3 * _stat(np.median, stats["tick"]), 2),
-        max_tick_ms_during_response=round(1e3 * _stat(np.max, stats["tick"]), 2),
+        all_max_tick_ms_during_response=round(1e3 * _stat(np.max, stats["tick"]), 2),
         success_rate=round(_stat(np.mean, results[1]), 3), train2_success_rate=round(_stat(np.mean, results[2]), 3),
         train5_success_rate=round(_stat(np.mean, results[5]), 3), creatures=len(creatures),
         hits=int(len(results[1]) + 2 * len(results[2]) + 5 * len(results[5])),
@@ -361,9 +369,6 @@ def main() -> None:
         paper_mode_vs_live_decision=(round(paper_s["total"] / float(np.median(hdec)), 1)
                                      if paper and hdec else None), search_recall=round(float(np.mean(same)), 3),
         library_build_s=round(build_s, 2), library_load_s=round(load_s, 2),
-        humanoid_decision_ms_median=round(1e3 * float(np.median(hdec)), 2),
-        humanoid_decision_ms_p99=round(1e3 * float(np.percentile(hdec, 99)), 2),
-        humanoid_max_tick_ms_during_response=round(1e3 * float(np.max(hstats["tick"])), 2),
         prepare_s_first=round(prepare_s[0], 3) if prepare_s else None,
         root_moved_any_off=len(stats.get("root_moved_any_off", [])),
         root_off_by_height=len(stats.get("root_off_by_height", [])),
