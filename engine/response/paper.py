@@ -122,6 +122,7 @@ def paper_response(char, body, impulse, point=None, duration: float = 0.0, *,
     dt = T / K
     r.sim2 = start                        # (Simulation 1 kept its own copy of the contact: r._contact is whole)
     r.match = res
+    r._found_down = lib.goes_down(res.lib_frame)     # the balance fades only into a fall, as live
     r.entry = lib.entries[res.clip]
     r._handoff = T
     r._plan_time = min(p.reaction_delay, T)
