@@ -26,6 +26,8 @@ Prints a table and ends with one JSON line. Figures (all measured in this run):
   body, so some put a hand inside the torso, where it now stops at the surface);
 - ``parent_twist_us``: what the limb rebuild's reference through the parent's frame
   (``IKParams.parent_twist``, on by default) costs over the paper's, the same way;
+- ``pull_cap_us``: what easing the goals' pulls on spine particles (``IKParams.spine_pull_cap``,
+  on by default) costs over pulls applied whole, the same way;
 - a per-stage profile of one solve (each stage timed alone in a loop inside numba).
 Requires the ``bench`` extra for ikpy and pybullet (``pip install -e .[bench]``); without
 them their figures are null.
@@ -384,6 +386,7 @@ def main(argv=None):
     ground_us, g_on, g_off = paired_cost(IKParams(ground=True), IKParams(ground=False))
     # the rebuild's reference through the parent's frame (on by default) against the paper's
     parent_twist_us, _, _ = paired_cost(IKParams(parent_twist=True), IKParams(parent_twist=False))
+    pull_cap_us, _, _ = paired_cost(IKParams(), IKParams(spine_pull_cap=0.0))
     ncl = plan_on.arrays.cl_i
 
     # Batched: a crowd sharing the plan.
@@ -418,6 +421,7 @@ def main(argv=None):
         reach_error_rel_max=worst, reach_error_rel_max_no_self_collision=worst_off,
         self_collision_us=self_collision_us, solve_us_median_no_self_collision=float(np.median(off_t)),
         ground_us=ground_us, solve_us_median_ground_on=float(np.median(g_on)), parent_twist_us=parent_twist_us,
+        pull_cap_us=pull_cap_us,
         solve_us_median_ground_off=float(np.median(g_off)),
         self_collision_proxies=int(ncl[0]), self_collision_pairs=int(ncl[2]), **chain,
         stage_us={k: round(v, 3) for k, v in stages.items()},
@@ -430,7 +434,7 @@ def main(argv=None):
             ("reach_error_rel_max", worst), ("reach_error_rel_max_no_self_collision", worst_off),
             ("self_collision_us", self_collision_us), ("self_collision_pairs", int(ncl[2])),
             ("ground_us", ground_us), ("solve_us_median_ground_off", res["solve_us_median_ground_off"]),
-            ("parent_twist_us", parent_twist_us),
+            ("parent_twist_us", parent_twist_us), ("pull_cap_us", pull_cap_us),
             ("chain_solve_us_median", chain["chain_solve_us_median"]),
             ("chain_error_max_m", chain["chain_error_max_m"]),
             ("ikpy_solve_us_median", chain["ikpy_solve_us_median"]),

@@ -76,6 +76,7 @@ INT_FIELDS = (
                            # body's goal held at its origin (self-delegated), else -1
     "scratch_layout",      # (13,) first row of each scratch block (see ``_scratch_views``)
     "cl_i",                # self-collision proxies and pairs (engine/ik/_collide.py)
+    "sp_prev",             # (nsp,) a spine particle's rootward neighbour, -1 for the root, goals, anchors
 )
 FLOAT_FIELDS = (
     ("b_rootrel_rot", 4), ("b_rootrel_pos", 3), ("b_rootrel_joint", 3),
@@ -127,7 +128,8 @@ P_BUCKLE_ON, P_BUCKLE_FULL, P_ANTI_BUCKLING, P_ROOT_INFLUENCE, P_SUBSTEPS = 7, 8
 P_SOFT_REACH, P_LIMB_STRETCH = 12, 13
 P_GOAL_AIM, P_ROOT_PIN, P_GROUND = 14, 15, 16
 P_CONTACT_ITERATE = 17
-NPARAM = 18
+P_PULL_CAP = 18
+NPARAM = 19
 
 # Scratch blocks (rows of 3): sp_pos, sp_inv, lp_pos, lp_rest, lp_inv, goal_joint, ch_tan,
 # state, dg_target, sp_acc, lg_target, lg_jtarget, segbody_tp.
@@ -558,7 +560,7 @@ def unpack(pi, pf, pf3, pf4):
         _i(pi, 22), _i(pi, 23), _i(pi, 24), _i(pi, 25), _i(pi, 26), _i(pi, 27), _i(pi, 28),
         _i(pi, 29), _i(pi, 30), _i(pi, 31), _i(pi, 32), _i(pi, 33), _i(pi, 34), _i(pi, 35),
         _i(pi, 36), _i(pi, 37), _i(pi, 38), _i(pi, 39), _i(pi, 40), _i(pi, 41), _i(pi, 42),
-        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47), _i(pi, 48), _i(pi, 49),
+        _i(pi, 43), _i(pi, 44), _i(pi, 45), _i(pi, 46), _i(pi, 47), _i(pi, 48), _i(pi, 49), _i(pi, 50),
         # floats
         _f(pi, pf4, 0), _f(pi, pf3, 1), _f(pi, pf3, 2), _f(pi, pf3, 3), _f(pi, pf4, 4),
         _f(pi, pf3, 5), _f(pi, pf3, 6), _f(pi, pf3, 7), _f(pi, pf, 8), _f(pi, pf, 9),
@@ -949,6 +951,7 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
     buckle = 0.0
     nsc = P.sc_a.shape[0]
     anti = prm[P_ANTI_BUCKLING] > 0.0
+    pull_cap = prm[P_PULL_CAP]
     for _outer in range(n_outer):
         for _inner in range(n_inner):
             for c in range(nsc):
@@ -967,8 +970,8 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                     continue
                 # Before a spine constraint or an anchor moves a particle, its pending
                 # pulls land.
-                _flush_acc(sp_pos, sp_acc, P.sc_a[c])
-                _flush_acc(sp_pos, sp_acc, P.sc_b[c])
+                _flush_acc(sp_pos, sp_acc, P.sc_a[c], P.sp_prev, pull_cap)
+                _flush_acc(sp_pos, sp_acc, P.sc_b[c], P.sp_prev, pull_cap)
                 if kind == 3:
                     if buckle > 0.0:
                         relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], 0.0, 1.0, 1.0,
@@ -977,7 +980,7 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
                 relax_constraint(sp_pos, sp_inv, P.sc_a[c], P.sc_b[c], P.sc_len[c], P.sc_lo[c],
                                  P.sc_hi[c], P.sc_inva[c], P.sc_invb[c], P.sc_stiff[c], slope, band, width)
             for i in range(nsp):
-                _flush_acc(sp_pos, sp_acc, i)
+                _flush_acc(sp_pos, sp_acc, i, P.sp_prev, pull_cap)
             # Goals with weight below 1 are pulled back toward their goal after each sweep.
             for gi in range(P.goal_body.shape[0]):
                 i = P.goal_sp[gi]
@@ -1003,9 +1006,23 @@ def _spine_phase(P, root_pos, root_rot, goal_pos_w, goal_rot_w, goal_joint, dg_t
 
 
 @njit(cache=True, _nrt=False, inline="always")
-def _flush_acc(sp_pos, sp_acc, i):
+def _flush_acc(sp_pos, sp_acc, i, sp_prev, cap):
+    """The goals' summed pull d lands on particle ``i``, eased as d / sqrt(1 + (|d| / L)^2),
+    L = ``cap`` times the particle's distance to its rootward neighbour (``cap`` 0: whole;
+    ``IKParams.spine_pull_cap``): a pull longer than that chord, along a line through the
+    neighbour, carried the particle through its pivot in one sweep and the chord's
+    projection then put it above or below at random (random 4258 hold_platter: spine5's
+    chord swung from 62 degrees down to 60 up within a goal weight change of 0.005). Eased,
+    the particle goes round its pivot over the sweeps, the way the pull turns it."""
     if sp_acc[i, 0] != 0.0 or sp_acc[i, 1] != 0.0 or sp_acc[i, 2] != 0.0:
-        set3(sp_pos, i, vadd(v3(sp_pos, i), v3(sp_acc, i)))
+        d = v3(sp_acc, i)
+        j = sp_prev[i]
+        if cap > 0.0 and j >= 0:
+            lim = cap * vnorm(vsub(v3(sp_pos, i), v3(sp_pos, j)))
+            n = vnorm(d)
+            if lim > 0.0:
+                d = vscale(d, 1.0 / math.sqrt(1.0 + (n / lim) ** 2))
+        set3(sp_pos, i, vadd(v3(sp_pos, i), d))
         sp_acc[i, 0] = 0.0
         sp_acc[i, 1] = 0.0
         sp_acc[i, 2] = 0.0
@@ -1969,7 +1986,7 @@ def transport_rest(p0, v0, a0, p1, v1, a1, frame0, ts, nsub, out_frames, out_poi
 
 
 def _check_layout():
-    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 50 + 52
+    assert len(PlanArrays._fields) == len(INT_FIELDS) + len(FLOAT_FIELDS) == 51 + 52
 
 
 _check_layout()

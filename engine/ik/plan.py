@@ -70,6 +70,8 @@ class IKParams:
                                   # as the goal leaves it free: 1 by position x rotation weight, 0 by position
                                   # weight alone (see ``_aim_at_child``)
     root_pin: bool = True        # a spine body hanging off the root keeps its joint where the root puts it
+    spine_pull_cap: float = 0.5   # a goal's pull on a spine particle per sweep eased past this times the particle's
+                                  # chord to its rootward neighbour (0: off; see ``_flush_acc``)
     foot_priority: float = 0.0    # where feet and other goals pull one spine particle, the others' share of a
                                   # pull (1: equal shares; below 1 the feet win, so a grasper past its reach does
                                   # not lift the feet it stands on)
@@ -104,6 +106,7 @@ class IKParams:
         v[K.P_ROOT_PIN] = 1.0 if self.root_pin else 0.0
         v[K.P_GROUND] = 1.0 if self.ground else (0.5 if self.ground_spine else 0.0)
         v[K.P_CONTACT_ITERATE] = 1.0 if self.self_collision_iterate else 0.0
+        v[K.P_PULL_CAP] = self.spine_pull_cap
         return v
 
     def validate(self) -> None:
@@ -1022,6 +1025,9 @@ def _build(c, goals: list[int], prm: IKParams):
                       fields["seg_b"], fields["seg_v0"], fields["seg_a0"], fields["seg_v1"], fields["seg_a1"],
                       fields["seg_body_adr"], fields["seg_body_num"], fields["segbody_t"],
                       int(fields["params"][K.P_SUBSTEPS]), fields["seg_rest_arc"], fields["segbody_share"])
+    sp_prev = np.full(len(fields["sp_kind"]), -1, np.int32)
+    sp_prev[fields["ch_particle"]] = fields["ch_prev"]
+    fields["sp_prev"] = sp_prev
     fields["cl_i"], fields["cl_f"], cl_rows, cl_pairs = selfcollision.build(
         c, has_ik, fields["lp_body"], fields["lp_mode"], fields["lp_c1"], fields["lp_attach"], prm.self_collision,
         prm.self_collision_rounds, int(sum(sizes)), goals, goal_lp)
