@@ -31,7 +31,8 @@ no such term; its window (0.2 s) sees the pose, not where the re-entered clip wi
 body, and a body pushed far over its feet springs back under the servos within that time:
 the windows of a stagger stepping back then match best (the bird hit at the pelvis from
 behind at 2.1 m/s, 40% of its height along the push, re-entered a stagger that stepped it
-23% of its height back, s40). The issue's staggers step *toward the push*.
+23% of its height back, s40). The issue's staggers step *toward the push*. The prefilter
+below ranks windows by pose alone; T re-ranks its best (and the refinement's) windows.
 
 Unique-frame culling keeps the library starts that differ from the last kept one by
 ``library.UNIQUE_TOL``; the best culled window is then refined over every start within
