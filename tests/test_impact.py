@@ -244,6 +244,38 @@ def test_the_search_prefers_clips_that_travel_with_the_push():
     assert res.distance > 0.0
 
 
+@pytest.mark.parametrize("kind", ["humanoid", "dog", "random3"])
+def test_the_library_knows_where_its_clips_go(kind):
+    """``MotionLibrary.travel``: a stagger's first frame still has its whole step ahead of it,
+    in the direction its name gives (animations/reactions: front +x, back -x, left +y,
+    right -y in the character's heading); ``goes_down``: a fall and lying go down, a stagger,
+    a brace and the idle clip do not."""
+    c = _creature(kind)
+    lib = library_for(c)
+    dirs = {"front": (1, 0), "back": (-1, 0), "left": (0, 1), "right": (0, -1)}
+    seen = set()
+    for e, clip in enumerate(lib.clips):
+        if clip is None:
+            continue
+        frames = np.flatnonzero(lib.clip_of == e)
+        first = int(frames[0])
+        name = clip.name.replace("_low", "")
+        if name.startswith("stagger_"):
+            t = lib.travel[first]
+            d = np.array(dirs[name.split("_")[1]], float)
+            assert t @ d > 0.5 * np.linalg.norm(t) > 0.0, (clip.name, t)
+            assert not lib.goes_down(first), clip.name
+            seen.add("stagger")
+        elif name.startswith("fall_") or name.startswith("lie_"):
+            assert lib.goes_down(first), clip.name
+            seen.add("down")
+        elif name in ("idle_breathe", "brace"):
+            assert not lib.goes_down(first), clip.name
+            assert np.linalg.norm(lib.travel[frames], axis=1).max() < 0.05 * c.height, clip.name
+            seen.add("in place")
+    assert seen == {"stagger", "down", "in place"}
+
+
 def _yaw_matrix(yaw):
     return np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
 

@@ -298,11 +298,16 @@ class MotionLibrary:
         self.build_seconds = time.perf_counter() - t0
 
     def goes_down(self, frame: int) -> bool:
-        """The entry of library frame ``frame`` takes the root below half its rest height
-        from there on (a fall, lying): the response lets the standing controller go."""
+        """The entry of library frame ``frame`` takes the root more than half the way from its
+        rest height down to where its box would lie on the ground, from there on (a fall,
+        lying; a low creature's collapse too): the response lets the standing controller go.
+        A brace (a fifth of the way) and a stagger do not."""
+        from engine.channels.modes import ground_height
+
         end = int(np.searchsorted(self.clip_of, self.clip_of[frame], side="right"))
         rest = float(self.creature.body_rest_pos[0, 2])
-        return bool(self.pos[frame:end, 0, 2].min() < 0.5 * rest)
+        low = ground_height(self.creature, 0)
+        return bool(self.pos[frame:end, 0, 2].min() < rest - 0.5 * (rest - low))
 
     @property
     def frames(self) -> int:
