@@ -47,6 +47,15 @@ Choices where the paper is silent (see ``../shared/research/impact.md`` 1.9):
       pose stands on feet: a snake lying on its belly thrashed under its balance wrench.
     * The found clip is placed on Simulation 2's root at the hand-off, not on Simulation 1's
       at the match (friction 0.5 against 1.0: the live body slides where the lookahead stood).
+    * The standing controller's balance wrench holds the centre of mass where it stood over
+      the supports at the hit (it goes where the feet go), turns the root back through the
+      whole body's inertia tensor and damps its angular momentum, at frequencies capped by
+      the frame it is held for; over the transition it fades only into a clip that goes
+      down (``MotionLibrary.goes_down``), so a body re-entering a standing clip is held on
+      its feet until the clip takes it (s40).
+    * The search adds a push term to the paper's distance: a window whose clip still
+      carries the root against the hits' impulse costs more (``engine.response.search``):
+      the paper's 0.2 s window sees the pose, not where the clip will take the body (s40).
     * A tap (Simulation 1's root stays near where it was) is not searched: the pose blends
       back onto the clip that kept playing (``tap_move``, ``tap_turn``). The search has no
       prior for staying in the interrupted clip, and near a held pose every window is close.
