@@ -246,35 +246,22 @@ def stand_torques(pos, rot, linvel, angvel, force, torque, mass, inertia, body_p
         lx += m_ * (ddy * uz - ddz * uy)
         ly += m_ * (ddz * ux - ddx * uz)
         lz += m_ * (ddx * uy - ddy * ux)
-        # the body's own inertia R diag(I_b) R^T, and its own spin's momentum
-        qw, qx, qy, qz = rot[b, 0], rot[b, 1], rot[b, 2], rot[b, 3]
-        r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
-        r01 = 2.0 * (qx * qy - qw * qz)
-        r02 = 2.0 * (qx * qz + qw * qy)
-        r10 = 2.0 * (qx * qy + qw * qz)
-        r11 = 1.0 - 2.0 * (qx * qx + qz * qz)
-        r12 = 2.0 * (qy * qz - qw * qx)
-        r20 = 2.0 * (qx * qz - qw * qy)
-        r21 = 2.0 * (qy * qz + qw * qx)
-        r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
-        a0, a1, a2 = inertia[b, 0], inertia[b, 1], inertia[b, 2]
-        ixx += a0 * r00 * r00 + a1 * r01 * r01 + a2 * r02 * r02
-        iyy += a0 * r10 * r10 + a1 * r11 * r11 + a2 * r12 * r12
-        izz += a0 * r20 * r20 + a1 * r21 * r21 + a2 * r22 * r22
-        ixy += a0 * r00 * r10 + a1 * r01 * r11 + a2 * r02 * r12
-        ixz += a0 * r00 * r20 + a1 * r01 * r21 + a2 * r02 * r22
-        iyz += a0 * r10 * r20 + a1 * r11 * r21 + a2 * r12 * r22
+        # the body's own inertia sum_k I_k a_k a_k^T (a_k its principal axes in the world) and
+        # its own spin's momentum sum_k I_k a_k (a_k . w)
         ox, oy, oz = angvel[b, 0], angvel[b, 1], angvel[b, 2]
-        # R diag(I) R^T w
-        bx = r00 * ox + r10 * oy + r20 * oz
-        by = r01 * ox + r11 * oy + r21 * oz
-        bz = r02 * ox + r12 * oy + r22 * oz
-        bx *= a0
-        by *= a1
-        bz *= a2
-        lx += r00 * bx + r01 * by + r02 * bz
-        ly += r10 * bx + r11 * by + r12 * bz
-        lz += r20 * bx + r21 * by + r22 * bz
+        for k in range(3):
+            ax, ay, az = _rotate(rot, b, 1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+            ik = inertia[b, k]
+            ixx += ik * ax * ax
+            iyy += ik * ay * ay
+            izz += ik * az * az
+            ixy += ik * ax * ay
+            ixz += ik * ax * az
+            iyz += ik * ay * az
+            sp = ik * (ax * ox + ay * oy + az * oz)
+            lx += sp * ax
+            ly += sp * ay
+            lz += sp * az
     tvx = frac * (gains[2] * (ixx * ex + ixy * ey + ixz * ez) - gains[3] * lx)
     tvy = frac * (gains[2] * (ixy * ex + iyy * ey + iyz * ez) - gains[3] * ly)
     tvz = frac * (gains[2] * (ixz * ex + iyz * ey + izz * ez) - gains[3] * lz)
