@@ -204,6 +204,30 @@ def test_goal_misses_reachable_and_beyond_reach(mini):
     assert m["beyond_reach"].value == pytest.approx(0.0, abs=1e-9)
 
 
+def test_a_goal_closer_than_the_folded_limb_can_come_is_out_of_reach(mini):
+    """The foot's joint hangs one bone (0.45 m) below the hip: with the foot's rotation held,
+    its joint can only be on a sphere of that radius about the hip. A goal asking for the
+    joint 0.2 m from the hip is out of reach from inside; the limb pointing at it misses by
+    0.25 m and nothing more is counted, where it was once judged reachable and failed."""
+    rec, ctx = still(mini), CellContext.for_creature(mini)
+    foot, thigh = mini.body("foot_l"), mini.body("thigh_l")
+    hip = mini.body_joint[thigh]
+    assert ctx.inner_chain[foot] == pytest.approx(0.45, rel=1e-9)
+    offset = mini.body_rest_pos[foot] - mini.body_joint[foot]       # rest rotation is the identity
+    rec.goal_pw[:, foot] = 1.0
+    rec.goal_rw[:, foot] = 1.0
+    rec.goal_pos[:, foot] = hip + (0.0, 0.0, -0.2) + offset
+    m = measures(goal_error, rec, ctx)
+    assert m["reach_miss"].value == 0.0
+    assert m["beyond_reach"].value == pytest.approx(0.0, abs=1e-9)
+    # the same goal missed by 5 cm more than the bone forces counts those 5 cm
+    rec.world_pos[:, foot] += (0.05, 0.0, 0.0)
+    m = measures(goal_error, rec, ctx)
+    reach = max(ctx.reach[foot], 0.1 * ctx.scale)
+    miss = np.hypot(0.05, 0.25)
+    assert m["beyond_reach"].value == pytest.approx((miss - 0.25) / reach, rel=1e-6)
+
+
 def test_a_joint_pulled_apart_is_a_stretch(mini):
     rec, ctx = still(mini), CellContext.for_creature(mini)
     foot = mini.body("foot_l")

@@ -283,7 +283,7 @@ def joint_separation(body_parent, body_local_joint, body_joint_offset, world_pos
 
 @njit(cache=True)
 def goal_errors(world_pos, world_rot, goal_pos, goal_rot, goal_pw, goal_rw, body_joint_offset, limb_root_of,
-                is_chain, is_spine_goal, chain, reach, norm, scale, full, reach_share):
+                is_chain, is_spine_goal, chain, reach, inner_chain, inner_reach, norm, scale, full, reach_share):
     """Per frame and body (``engine.validation.goals``): ``reach_rel`` (a reachable
     full-weight goal's miss over the limb's reach), ``beyond_rel`` (an unreachable one's miss
     beyond what a straight limb leaves), ``spine_rel`` (a spine or one-body-limb goal's miss
@@ -315,6 +315,7 @@ def goal_errors(world_pos, world_rot, goal_pos, goal_rot, goal_pw, goal_rw, body
             rz = world_pos[i, r, 2] - jz
             tx, ty, tz = goal_pos[i, b, 0], goal_pos[i, b, 1], goal_pos[i, b, 2]
             limit = reach[b]
+            inner = inner_reach[b]
             if goal_rw[i, b] >= full:
                 # with its rotation fixed, the body's joint has a target of its own
                 ox, oy, oz = quat_rotate_t(goal_rot[i, b], body_joint_offset[b])
@@ -322,9 +323,10 @@ def goal_errors(world_pos, world_rot, goal_pos, goal_rot, goal_pw, goal_rw, body
                 ty -= oy
                 tz -= oz
                 limit = chain[b]
+                inner = inner_chain[b]
             d = np.sqrt((tx - rx) ** 2 + (ty - ry) ** 2 + (tz - rz) ** 2)
-            if d <= reach_share * limit:
+            if d <= reach_share * limit and (inner <= 0.0 or d >= inner + (1.0 - reach_share) * limit):
                 reach_rel[i, b] = miss / norm[b]
             else:
-                beyond_rel[i, b] = max(miss - max(d - limit, 0.0), 0.0) / norm[b]
+                beyond_rel[i, b] = max(miss - max(d - limit, inner - d, 0.0), 0.0) / norm[b]
     return reach_rel, beyond_rel, spine_rel, rot_miss

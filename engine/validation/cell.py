@@ -43,6 +43,32 @@ RANDOM_TARGET_SETS = 2
 FILMSTRIP = 8
 
 
+def _inner_radii(c: Creature, root_of: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(inner_reach, inner_chain) per body: the closest its origin, and its joint, can come to
+    its limb root's joint. A chain of segments reaches every distance from max(0, longest -
+    the others) to their sum; inside that a goal is out of reach as surely as past the sum
+    (the spider's palp is one bone: a goal at its mouth, 6 mm from the palp's root, cannot
+    be met by a 3.7 cm bone). Segments: the bones from the limb root's joint to the body's
+    joint, and for the origin the body's own joint-to-origin offset."""
+    inner_reach = np.zeros(c.nbody)
+    inner_chain = np.zeros(c.nbody)
+    for b in range(c.nbody):
+        r = int(root_of[b])
+        if r < 0:
+            continue
+        bones = []
+        k = b
+        while k != r:
+            p = int(c.body_parent[k])
+            bones.append(float(np.linalg.norm(c.body_joint[k] - c.body_joint[p])))
+            k = p
+        if bones:
+            inner_chain[b] = max(0.0, 2.0 * max(bones) - sum(bones))
+        bones.append(float(np.linalg.norm(c.body_joint_offset[b])))
+        inner_reach[b] = max(0.0, 2.0 * max(bones) - sum(bones))
+    return inner_reach, inner_chain
+
+
 @dataclass
 class CellContext:
     """Constants of one creature the metrics share (computed once per creature)."""
@@ -55,6 +81,8 @@ class CellContext:
     limb_root_of: np.ndarray        # (nb,) first body of each body's limb (-1 on the spine)
     reach: np.ndarray               # (nb,) path from the limb root's joint to the body origin, m
     chain: np.ndarray               # (nb,) path from the limb root's joint to the body's joint, m
+    inner_reach: np.ndarray         # (nb,) closest the body origin can come to its limb root's joint, m
+    inner_chain: np.ndarray         # (nb,) the same for the body's joint (its rotation held), m
     chain_bodies: np.ndarray        # bodies below the root of a limb (a chain of 2+ bodies)
     spine_goal_bodies: np.ndarray   # spine bodies other than the root, and one-body limbs
     is_chain: np.ndarray            # (nb,) bool masks of the two
@@ -86,6 +114,7 @@ class CellContext:
         reach[limb] = chain[limb] + np.linalg.norm(c.body_joint_offset[limb], axis=1)
         reach = np.maximum(reach, 0.01 * scale)
         chained = np.array([b for b in limb if c.body_limb_length[b] > 0.0], np.int64)
+        inner_reach, inner_chain = _inner_radii(c, root_of)
         single = np.array([b for b in limb if c.body_limb_length[b] <= 0.0
                            and c.body_subtree_end[b] == b + 1], np.int64)
         spine = np.concatenate([np.array([b for b in c.spine_chain if b != 0], np.int64), single])
@@ -104,7 +133,8 @@ class CellContext:
         symmetric = bool(np.all(mirror >= 0)) and bool(
             np.allclose(c.body_rest_pos[mirror] * [1, -1, 1], c.body_rest_pos, atol=1e-9 * scale))
         return cls(creature=c, scale=scale, height=height, floor=0.01 * scale, limb_bodies=limb,
-                   limb_root_of=root_of, reach=reach, chain=chain, chain_bodies=chained, spine_goal_bodies=spine,
+                   limb_root_of=root_of, reach=reach, chain=chain, inner_reach=inner_reach,
+                   inner_chain=inner_chain, chain_bodies=chained, spine_goal_bodies=spine,
                    is_chain=np.isin(np.arange(c.nbody), chained), is_spine_goal=np.isin(np.arange(c.nbody), spine),
                    foot_contact_local=contact,
                    leg_length=np.maximum(np.asarray(c.leg_length, float), 1e-6), pair_a=pa, pair_b=pb,

@@ -12,6 +12,10 @@ IK to go 40% of the way and is soft by design. Per frame and goal body:
   not judged in units of 2 cm): ``reach_miss`` = miss / reach;
 - an *unreachable* goal is met as well as it can be when the limb points straight at it:
   the miss beyond reach is what counts, ``beyond_reach`` = (miss - (distance - reach)) / reach;
+  a goal closer to the limb's root than the folded limb can come (``CellContext.inner_reach``:
+  the longest segment less the others; a one-bone palp cannot bring its tip to its own root)
+  is out of reach the same way, ``beyond_reach`` = (miss - (inner - distance)) / reach, and a
+  goal is reachable only ``1 - REACH_SHARE`` of the reach clear of both bounds;
 - goals on spine bodies, and on one-body limbs (jaws, eyes: their goal moves the spine,
   to which the IK delegates them), are compromises between every goal on the spine:
   ``spine_miss`` = miss / the creature's size, reported and warned about, never failed;
@@ -51,7 +55,7 @@ def goal_error(rec, ctx) -> list[Measure]:
     goal_pos, moved_max, moved_frames = settled_goal_positions(rec)
     reach_rel, beyond_rel, spine_rel, ang = K.goal_errors(
         rec.world_pos, rec.world_rot, goal_pos, rec.goal_rot, rec.goal_pw, rec.goal_rw, c.body_joint_offset,
-        ctx.limb_root_of, ctx.is_chain, ctx.is_spine_goal, ctx.chain, ctx.reach,
+        ctx.limb_root_of, ctx.is_chain, ctx.is_spine_goal, ctx.chain, ctx.reach, ctx.inner_chain, ctx.inner_reach,
         np.maximum(ctx.reach, REACH_FLOOR * ctx.scale), ctx.scale, FULL, REACH_SHARE)
     out = [worst("reach_miss", reach_rel, "reach", names, rec.t),
            worst("beyond_reach", beyond_rel, "reach", names, rec.t),

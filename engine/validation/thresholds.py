@@ -43,8 +43,9 @@ THRESHOLDS: tuple[Threshold, ...] = (
               "a reachable full-weight goal missed by 3% of the limb's reach (5 cm on a human arm) is a hand "
               "visibly off its target; the IK meets such goals to 1e-9 when nothing conflicts"),
     Threshold("beyond_reach", "reach", 0.02, 0.05,
-              "an unreachable goal is met as well as it can be by a limb pointing straight at it; 5% of the "
-              "reach beyond that is a limb not even trying"),
+              "an unreachable goal (past the stretched limb, or closer to its root than the folded limb can "
+              "come) is met as well as it can be by a limb pointing straight at it; 5% of the reach beyond "
+              "that is a limb not even trying"),
     Threshold("spine_miss", "size", 0.05, None,
               "goals on spine bodies and one-body limbs (a head, a jaw) are compromises the spine phase makes "
               "between all of them (section 4.3.2); a miss of 5% of the size warns"),
