@@ -554,6 +554,36 @@ def _stand_hip(root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, hip, at
 
 
 @njit(cache=True)
+def root_above_ground(rows, ground_set, root_pos, root_rot, root_extent, root_floor):
+    """The root's own box kept out of the ground a standing character stands on, as
+    ``goals_above_ground`` keeps the goals (the root is posed by the clip, not the IK, so no
+    goal of it reaches that stage): a crouch or a jump's wind-up that lowers the root of a
+    creature lying on its belly (a legless crawler's root rests on the ground) raised until
+    its box's lowest corner, turned by the root's rotation, is at ``root_floor`` (the lower
+    of 0 and that corner at rest). Continuous in the root's pose (a max). Runs before the
+    standing stage, so the feet are placed under the root where it ends."""
+    v = np.empty(3)
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        if ground_set[r]:
+            continue
+        q = root_rot[r]
+        lo = 1e300
+        for sx in (-1.0, 1.0):
+            for sy in (-1.0, 1.0):
+                for sz in (-1.0, 1.0):
+                    v[0] = sx * root_extent[0]
+                    v[1] = sy * root_extent[1]
+                    v[2] = sz * root_extent[2]
+                    x, y, z = quat_rotate_t(q, v)
+                    if z < lo:
+                        lo = z
+        below = root_floor - (root_pos[r, 2] + lo)
+        if below > 0.0:
+            root_pos[r, 2] += below
+
+
+@njit(cache=True)
 def goals_above_ground(rows, ground_set, goal_pos, goal_rot, goal_pw, goal_rw, rest_rot, body_extent, body_floor):
     """Goals kept out of the ground a standing character stands on (character space z = 0;
     rows whose gait set a terrain, ``ground_set``, are the gait's to place): a position goal
