@@ -1196,24 +1196,27 @@ def _spine_reconstruct(P, root_pos, root_rot, goal_pos_w, goal_rot, goal_rot_w, 
             # the first frame of a crossfade into idle_breathe, whose spine goals start at
             # weight 0.009; a spine body's own goal is such a delegated one).
             rot = qslerp(rot, qmul(qbetween(acc_r, acc_p), rot), (1.0 - buckle) * min(wsum, 1.0))
-        # The spine body's own rotation goal, blended by its weight. Not faded by the
-        # buckling as the swing above is: it turns the body about its joint once the
-        # spine's shape is made, and folds nothing (faded, a head told to look at a fruit
+        # The spine body's own rotation goal, blended by its weight and, where an outward
+        # spine joint hangs on the body, faded by the buckling as the swing above is (the
+        # buckled spine's next joint is where the chord put it, and a body turned away from
+        # its chord opens a gap there: captured chests in dance, 0.35 of a bone). The end
+        # of a side carries no spine joint: its goal turns it about its joint once the
+        # spine's shape is made and folds nothing (faded, a head told to look at a fruit
         # while an arm's reach buckled the spine looked 1.9 rad away from it: random 4246
         # pick_fruit, buckle 0.83).
+        fade = 1.0 - buckle if P.ch_next[k] >= 0 else 1.0
         for gi in range(P.goal_body.shape[0]):
             if P.goal_sp[gi] == i:
-                wr = min(max(goal_rot_w[s], 0.0), 1.0)
+                wr = min(max(goal_rot_w[s], 0.0), 1.0) * fade
                 if wr > 0.0:
                     rot = qslerp(rot, q4(goal_rot, s), wr)
         # Delegated rotation goals: the spine body takes the rotation that puts the
-        # delegating body on its goal, blended by the goal's weight (not faded by the
-        # buckling either, for the same reason).
+        # delegating body on its goal, blended by the goal's weight (faded the same way).
         for d in range(P.dg_body.shape[0]):
             if P.dg_spine_particle[d] != i:
                 continue
             db = P.dg_body[d]
-            wr = min(max(goal_rot_w[db], 0.0), 1.0)
+            wr = min(max(goal_rot_w[db], 0.0), 1.0) * fade
             if wr > 0.0:
                 rot = qslerp(rot, qmul(q4(goal_rot, db), qconj(q4(P.dg_rel_rot, d))), wr)
         set4(out_rot, s, rot)
