@@ -26,7 +26,7 @@ import numpy as np
 from engine.errors import DataError
 from engine.ik import _kernels as K
 from engine.ik import selfcollision
-from engine.model.caps import FOOT, HEAD, MOUTH
+from engine.model.caps import FOOT, GRASPER, HEAD, MOUTH
 
 
 class IKError(DataError):
@@ -334,14 +334,18 @@ def _rebuild_refs(c, lp, rr_rot, feet, on: bool) -> tuple[np.ndarray, np.ndarray
     return ref_dir, ref_rot
 
 
-def _param_vector(prm: IKParams, splayed_forks: int):
-    """The kernel's parameter vector for one plan. A fork swinging out of its plane
-    settles more slowly than a serial chain bends (the corrections turn it only through
-    the small splay), so plans with splayed forks get twice the limb iterations: with
-    6 a held-out branching-leg walker's planted toes slid 1.9 mm, with 12 none did. Plans
-    without forks (most creatures, the benchmark humanoid) keep the default cost."""
+def _param_vector(prm: IKParams, held_forks: int):
+    """The kernel's parameter vector for one plan. A fork whose branches all end on held
+    feet or graspers settles more slowly than a serial chain bends: its branch point is dragged by
+    two children in turn, and a fork swinging out of its plane turns only through the
+    small splay. Plans with such forks get twice the limb iterations: with 6 a held-out
+    branching-leg walker's planted toes slid 1.9 mm, with 12 none did; the forkstrider's
+    planted feet slid 1.4% of its leg as a crouch bent its straight forked legs (12
+    iterations: none; first given only to forks in the plane of their ends, stop 41 to
+    every held fork). Plans without forks (most creatures, the benchmark humanoid) keep
+    the default cost."""
     v = prm.vector()
-    if splayed_forks:
+    if held_forks:
         v[K.P_LIMB_OUTER] = 2 * prm.limb_outer
     return v
 
@@ -876,7 +880,7 @@ def _build(c, goals: list[int], prm: IKParams):
     # constraint correction has a component along t and the iterations sit in that plane
     # with every segment compressed. Start the branch joints slightly along t: away from
     # the sagittal plane (forward for a fork on it), like a knee splaying out.
-    splayed = 0
+    held_forks = 0
     for P in lp:
         kids = [k for k in P["kids"] if not lp[lp_of[k]].get("tip")]
         if len(kids) < 2:
@@ -884,6 +888,11 @@ def _build(c, goals: list[int], prm: IKParams):
         # Only where every branch is held by a goal (a free branch lets P turn freely).
         if not all(any(h in slot_of for h in range(k, int(c.body_subtree_end[k]))) for k in kids):
             continue
+        # A fork planted on feet or holding with graspers (a head whose eyes and jaw turn
+        # to rotation goals is no such fork) settles slowly: twice the limb iterations.
+        if all(any(h in slot_of and int(caps[h]) & (FOOT | GRASPER) for h in range(k, int(c.body_subtree_end[k])))
+               for k in kids):
+            held_forks += 1
         b = P["body"]
         ends = []
         for k in kids:
@@ -903,7 +912,6 @@ def _build(c, goals: list[int], prm: IKParams):
         if float(t @ pref) < 0.0:
             t = -t
         off = prm.fork_splay * seg * t
-        splayed += 1
         for k in kids:
             Q = lp[lp_of[k]]
             Q["init"] = Q["init"] + _qrot(_qconj(rr_rot[Q["attach"]]), off)
@@ -1011,7 +1019,7 @@ def _build(c, goals: list[int], prm: IKParams):
         lc_plo=f64([x.get("plo", prm.limb_shrink) for x in lc], 1),
         lc_phi=f64([x.get("phi", prm.limb_stretch) for x in lc], 1),
         lc_inva=f64([x["inva"] for x in lc], 1), lc_invb=f64([x["invb"] for x in lc], 1),
-        goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, splayed),
+        goal_reach=goal_reach, goal_reachj=goal_reachj, params=_param_vector(prm, held_forks),
         ag_via=f64(ag_via, 3),
         lp_ref_dir=f64(ref_dir, 3), lp_ref_rot=f64(ref_rot, 4),
         b_extent=f64(c.body_extent, 3), b_floor=f64(body_floor(c), 1),
