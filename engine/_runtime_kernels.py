@@ -364,9 +364,34 @@ LIFT_FREE = 0.25
 
 
 @njit(cache=True)
+def _root_above_ground(root_pos, root_rot, root_extent, root_floor, v):
+    """The root's own box kept out of the ground a standing character stands on, as
+    ``goals_above_ground`` keeps the goals (the root is posed by the clip, not the IK, so no
+    goal of it reaches that stage): a crouch or a jump's wind-up that lowers the root of a
+    creature lying on its belly (a legless crawler's root rests on the ground) raised until
+    its box's lowest corner, turned by the root's rotation, is at ``root_floor`` (the lower
+    of 0 and that corner at rest). Continuous in the root's pose (a max). ``stand_feet``
+    runs it first, so the feet are placed under the root where it ends; ``v`` (3,) is
+    scratch."""
+    lo = 1e300
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            for sz in (-1.0, 1.0):
+                v[0] = sx * root_extent[0]
+                v[1] = sy * root_extent[1]
+                v[2] = sz * root_extent[2]
+                x, y, z = quat_rotate_t(root_rot, v)
+                if z < lo:
+                    lo = z
+    below = root_floor - (root_pos[2] + lo)
+    if below > 0.0:
+        root_pos[2] += below
+
+
+@njit(cache=True)
 def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_pw, goal_rw, root_pos, root_rot,
                leg_rigid, leg_hip, leg_ankle, leg_reach, leg_chain, leg_knee, leg_contact, leg_contact_local,
-               leg_attach, leg_hip_local, carry, scratch):
+               leg_attach, leg_hip_local, carry, scratch, ground_set, root_extent, root_floor):
     """Standing (the gait stage of a character that does not locomote): every foot of
     each row in ``rows`` with ``stand[row]`` is held at its rest spot on the ground, under whatever the
     animations ask of it: the blended goal is laid over the rest spot by its own weight,
@@ -404,10 +429,17 @@ def stand_feet(rows, stand, feet, rest_pos, rest_rot, goal_pos, goal_rot, goal_p
     far alone, so the spine goals (``carry``: spine bodies but the root) move with the
     root, and the pivot feet aim at it. A foot the clip lifts holds the body less the
     higher it goes (free at ``LIFT_FREE`` of its chain: a jump still jumps).
-    ``scratch`` (nleg, 8) is scratch."""
+    ``scratch`` (nleg, 8) is scratch.
+
+    First, for every row whose ground is the flat z = 0 (not ``ground_set``: a walker's
+    terrain is its gait's), legged or not, the root's own box is kept out of the ground
+    (``_root_above_ground``: ``root_extent``, ``root_floor``)."""
     nleg = feet.shape[0]
+    v = np.empty(3)
     for i in range(rows.shape[0]):
         r = rows[i]
+        if not ground_set[r]:
+            _root_above_ground(root_pos[r], root_rot[r], root_extent, root_floor, v)
         if not stand[r]:
             continue
         for k in range(nleg):
@@ -551,36 +583,6 @@ def _stand_hip(root_pos, root_rot, goal_pos, goal_rot, goal_pw, goal_rw, hip, at
         hy += lam * (goal_pos[attach, 1] + gy - hy)
         hz += lam * (goal_pos[attach, 2] + gz - hz)
     return hx, hy, hz, lam
-
-
-@njit(cache=True)
-def root_above_ground(rows, ground_set, root_pos, root_rot, root_extent, root_floor):
-    """The root's own box kept out of the ground a standing character stands on, as
-    ``goals_above_ground`` keeps the goals (the root is posed by the clip, not the IK, so no
-    goal of it reaches that stage): a crouch or a jump's wind-up that lowers the root of a
-    creature lying on its belly (a legless crawler's root rests on the ground) raised until
-    its box's lowest corner, turned by the root's rotation, is at ``root_floor`` (the lower
-    of 0 and that corner at rest). Continuous in the root's pose (a max). Runs before the
-    standing stage, so the feet are placed under the root where it ends."""
-    v = np.empty(3)
-    for i in range(rows.shape[0]):
-        r = rows[i]
-        if ground_set[r]:
-            continue
-        q = root_rot[r]
-        lo = 1e300
-        for sx in (-1.0, 1.0):
-            for sy in (-1.0, 1.0):
-                for sz in (-1.0, 1.0):
-                    v[0] = sx * root_extent[0]
-                    v[1] = sy * root_extent[1]
-                    v[2] = sz * root_extent[2]
-                    x, y, z = quat_rotate_t(q, v)
-                    if z < lo:
-                        lo = z
-        below = root_floor - (root_pos[r, 2] + lo)
-        if below > 0.0:
-            root_pos[r, 2] += below
 
 
 @njit(cache=True)

@@ -167,7 +167,6 @@ class _Stack:
         #: Rows whose feet stand (no locomotion controller): the gait stage holds their feet.
         self.stand = np.full(n, creature.nleg > 0, np.bool_)
         self.stand_call = None
-        self.root_ground_call = None
         self.ground_call = None
         self.gait_args = None
         self.rows = np.arange(n, dtype=np.int64)
@@ -595,20 +594,16 @@ class _GaitBatch:
 def _stand_rows(s: _Stack, rows: np.ndarray) -> None:
     """Standing feet for the stack rows ``rows`` that have no locomotion controller (the
     root's box first kept out of the ground, then the feet, then the goals)."""
-    call = s.root_ground_call
-    if call is None or call.args[0] is not rows:
-        c = s.creature
-        call = s.root_ground_call = BoundKernel(RK.root_above_ground, (rows, s.ground_set, s.root_pos, s.root_rot,
-                                                                       np.ascontiguousarray(c.body_extent[0]),
-                                                                       float(_body_floor(c)[0])))
-    call.call()
     call = s.stand_call
     if call is None or call.args[0] is not rows:
         c = s.creature
         legs = _standing_legs(c)
         call = s.stand_call = BoundKernel(RK.stand_feet, (rows, s.stand, c.leg_foot, c.body_rest_pos, c.body_rest_rot,
                                                           s.goal_pos, s.goal_rot, s.goal_pw, s.goal_rw, s.root_pos,
-                                                          s.root_rot) + legs + (_spine_carry(c), np.zeros((c.nleg, 8))))
+                                                          s.root_rot) + legs + (_spine_carry(c), np.zeros((c.nleg, 8)),
+                                                                                s.ground_set,
+                                                                                np.ascontiguousarray(c.body_extent[0]),
+                                                                                float(_body_floor(c)[0])))
     call.call()
     call = s.ground_call
     if call is None or call.args[0] is not rows:
