@@ -364,6 +364,23 @@ LIFT_FREE = 0.25
 
 
 @njit(cache=True)
+def _lowest_corner(q, extent, v):
+    """Height, over its centre, of the lowest corner of a box of half extents ``extent``
+    turned by ``q`` (``v`` (3,) is scratch)."""
+    lo = 1e300
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            for sz in (-1.0, 1.0):
+                v[0] = sx * extent[0]
+                v[1] = sy * extent[1]
+                v[2] = sz * extent[2]
+                x, y, z = quat_rotate_t(q, v)
+                if z < lo:
+                    lo = z
+    return lo
+
+
+@njit(cache=True)
 def _root_above_ground(root_pos, root_rot, root_extent, root_floor, v):
     """The root's own box kept out of the ground a standing character stands on, as
     ``goals_above_ground`` keeps the goals (the root is posed by the clip, not the IK, so no
@@ -373,17 +390,7 @@ def _root_above_ground(root_pos, root_rot, root_extent, root_floor, v):
     of 0 and that corner at rest). Continuous in the root's pose (a max). ``stand_feet``
     runs it first, so the feet are placed under the root where it ends; ``v`` (3,) is
     scratch."""
-    lo = 1e300
-    for sx in (-1.0, 1.0):
-        for sy in (-1.0, 1.0):
-            for sz in (-1.0, 1.0):
-                v[0] = sx * root_extent[0]
-                v[1] = sy * root_extent[1]
-                v[2] = sz * root_extent[2]
-                x, y, z = quat_rotate_t(root_rot, v)
-                if z < lo:
-                    lo = z
-    below = root_floor - (root_pos[2] + lo)
+    below = root_floor - (root_pos[2] + _lowest_corner(root_rot, root_extent, v))
     if below > 0.0:
         root_pos[2] += below
 
@@ -606,17 +613,7 @@ def goals_above_ground(rows, ground_set, goal_pos, goal_rot, goal_pw, goal_rw, r
             if goal_pw[r, b] <= 0.0:
                 continue
             q = goal_rot[r, b] if goal_rw[r, b] > 0.0 else rest_rot[b]
-            lo = 1e300
-            for sx in (-1.0, 1.0):
-                for sy in (-1.0, 1.0):
-                    for sz in (-1.0, 1.0):
-                        v[0] = sx * body_extent[b, 0]
-                        v[1] = sy * body_extent[b, 1]
-                        v[2] = sz * body_extent[b, 2]
-                        x, y, z = quat_rotate_t(q, v)
-                        if z < lo:
-                            lo = z
-            below = body_floor[b] - (goal_pos[r, b, 2] + lo)
+            below = body_floor[b] - (goal_pos[r, b, 2] + _lowest_corner(q, body_extent[b], v))
             if below > 0.0:
                 goal_pos[r, b, 2] += below
 
